@@ -1,0 +1,1 @@
+//! Distributed model predictive control of PuzzleBots (Clarabel, real-time iteration).

@@ -1,0 +1,1 @@
+//! The PuzzleBot host daemon library and the `puzzlebot` binary.

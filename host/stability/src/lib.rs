@@ -1,0 +1,1 @@
+//! Quasi-static stability of modular assemblies as a second-order cone program (the stability gate).

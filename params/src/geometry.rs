@@ -1,0 +1,51 @@
+//! Body and wheel geometry (THESIS 2.3.4, 4.2.1, 5.2.1, 5.5.6).
+
+use serde::{Deserialize, Serialize};
+
+/// Body footprint, wheels and connection points, in the body frame (x forward, y left).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Geometry {
+    /// Body length along x (m). THESIS 5.2.1: 5 cm.
+    pub length: f32,
+    /// Body width along y (m). THESIS 5.2.1: 5 cm.
+    pub width: f32,
+    /// Body height (m). THESIS 5.2.1: 5.5 cm (v3).
+    pub height: f32,
+    /// Wheel radius R (m). THESIS 2.3.4: 17 mm.
+    pub wheel_radius: f32,
+    /// Distance between the wheels L (m). THESIS 2.3.4: 40 mm.
+    pub wheel_base: f32,
+    /// Anchor head point a in the body frame (m). THESIS 5.5.6: (−0.032, 0).
+    pub anchor_head: [f32; 2],
+    /// Centre of the anchor opening (front) in the body frame (m): the front face.
+    pub anchor_opening: [f32; 2],
+    /// Knob centre on the left side (m); the right side carries the hole at the mirror point.
+    pub knob_left: [f32; 2],
+    /// Height of the centre of mass above the ground (m), used by the stability gate.
+    pub com_height: f32,
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Geometry {
+            length: 0.050,
+            width: 0.050,
+            height: 0.055,
+            wheel_radius: 0.017,
+            wheel_base: 0.040,
+            anchor_head: [-0.032, 0.0],
+            anchor_opening: [0.025, 0.0],
+            knob_left: [0.0, 0.025],
+            // Not given in THESIS; battery and motors sit low: about 40 % of the height.
+            com_height: 0.022,
+        }
+    }
+}
+
+impl Geometry {
+    /// Half extents of the body rectangle (m).
+    pub fn half_extents(&self) -> [f32; 2] {
+        [self.length * 0.5, self.width * 0.5]
+    }
+}

@@ -1,0 +1,111 @@
+//! Loading parameter files with errors that name the file, line and field.
+
+use std::path::{Path, PathBuf};
+
+/// A parameter or config file that could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or a field is wrong.
+    #[error("{path}:{line}:{column}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the error.
+        line: usize,
+        /// 1-based column of the error.
+        column: usize,
+        /// What was wrong, naming the field.
+        message: String,
+    },
+}
+
+/// Parse TOML text into `T`, mapping errors to file, line, column and field.
+pub fn from_toml_str<T: serde::de::DeserializeOwned>(
+    path: &Path,
+    text: &str,
+) -> Result<T, LoadError> {
+    toml::from_str(text).map_err(|e| {
+        let (line, column) = e.span().map(|s| line_col(text, s.start)).unwrap_or((1, 1));
+        LoadError::Parse {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: e.message().trim().to_string(),
+        }
+    })
+}
+
+/// Read and parse a TOML file into `T`.
+pub fn from_toml_file<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, LoadError> {
+    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    from_toml_str(path, &text)
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl crate::FleetParams {
+    /// Load fleet parameters from a TOML file; missing fields keep THESIS defaults.
+    pub fn from_file(path: &Path) -> Result<Self, LoadError> {
+        from_toml_file(path)
+    }
+}
+
+impl crate::RobotParams {
+    /// Load one robot's parameters (e.g. a calibration result) from a TOML file.
+    pub fn from_file(path: &Path) -> Result<Self, LoadError> {
+        from_toml_file(path)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::FleetParams;
+
+    #[test]
+    fn partial_file_overrides_only_named_fields() {
+        let p: FleetParams = from_toml_str(
+            Path::new("fleet.toml"),
+            "[pilot.drive]\nk_v = 0.003\n[rates]\nmpc_hz = 20.0\n",
+        )
+        .expect("valid");
+        assert_eq!(p.pilot.drive.k_v, 0.003);
+        assert_eq!(p.rates.mpc_hz, 20.0);
+        assert_eq!(p.non_pilot, FleetParams::default().non_pilot);
+    }
+
+    #[test]
+    fn errors_name_file_line_and_field() {
+        let err = from_toml_str::<FleetParams>(
+            Path::new("fleet.toml"),
+            "[rates]\nmpc_hz = 10.0\ncommand_hz = \"fast\"\n",
+        )
+        .expect_err("wrong type");
+        let msg = err.to_string();
+        assert!(msg.starts_with("fleet.toml:3:"), "{msg}");
+        let err = from_toml_str::<FleetParams>(Path::new("f.toml"), "[rates]\nmpc_herz = 1.0\n")
+            .expect_err("unknown field");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("f.toml:2:") && msg.contains("mpc_herz"),
+            "{msg}"
+        );
+    }
+}

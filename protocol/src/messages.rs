@@ -1,0 +1,284 @@
+//! Every message of DESIGN.md §4, as plain serde types encoded with postcard.
+//!
+//! Speeds are wheel (output-shaft) RPM as `f32`; duties are signed per-mille of full PWM.
+//! [`validate`](HostMsg::validate) rejects non-finite and absurd numbers before any
+//! message reaches control code.
+
+use serde::{Deserialize, Serialize};
+
+use crate::crypto::Nonce;
+
+/// Robot id within a fleet.
+pub type RobotId = u16;
+
+/// Largest wheel speed magnitude a command may carry (RPM); firmware clamps to its own range.
+pub const MAX_COMMAND_RPM: f32 = 1000.0;
+/// Full-scale duty in per-mille.
+pub const DUTY_FULL_SCALE: i16 = 1000;
+
+/// Pilot robots have four wheels and turn poorly; non-pilots two wheels and casters (THESIS 3.4, 5.2.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RobotKind {
+    /// Four-wheeled robot that can climb onto a platform but turns poorly.
+    Pilot,
+    /// Two wheels and ball casters; turns almost in place.
+    NonPilot,
+}
+
+/// Firmware semantic version.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FirmwareVersion {
+    /// Major.
+    pub major: u8,
+    /// Minor.
+    pub minor: u8,
+    /// Patch.
+    pub patch: u8,
+}
+
+/// Proportional-integral gains of one scheduling point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PiGains {
+    /// Proportional gain (duty per-mille per RPM of error).
+    pub kp: f32,
+    /// Integral gain (duty per-mille per RPM·s of error).
+    pub ki: f32,
+}
+
+/// Runtime parameters the host may set on a robot.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ParamSet {
+    /// Gains at the three scheduling points (target-speed changes of 123, 265, 495 RPM; THESIS 5.2.3).
+    pub pi: [PiGains; 3],
+    /// No valid command for this long stops the motors (ms).
+    pub failsafe_timeout_ms: u16,
+    /// Telemetry rate (Hz); 0 disables telemetry.
+    pub telemetry_hz: u8,
+}
+
+/// Messages a robot sends to the host.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum RobotMsg {
+    /// Hello stream: "I am here, open a session with this nonce".
+    Announce(Announce),
+    /// Periodic state report.
+    Telemetry(Telemetry),
+    /// Answer to [`HostMsg::Ping`].
+    Pong {
+        /// Echo of the ping's sequence number.
+        seq: u32,
+        /// Echo of the host's send time (µs, host clock).
+        host_time_us: u64,
+    },
+    /// Answer to [`HostMsg::SetParams`].
+    ParamsReply {
+        /// `None` when applied; the reason otherwise.
+        rejected: Option<ParamRejection>,
+    },
+}
+
+/// Robot announce (hello stream).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Announce {
+    /// Pilot or non-pilot.
+    pub kind: RobotKind,
+    /// Firmware version.
+    pub firmware: FirmwareVersion,
+    /// Highest protocol version the robot speaks.
+    pub protocol_version: u8,
+    /// Fresh per boot and per announce cycle; the session key depends on it.
+    pub robot_nonce: Nonce,
+}
+
+/// Messages the host sends to a robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum HostMsg {
+    /// Hello stream: accept the announce with `robot_nonce`, open a session.
+    Welcome {
+        /// Echo of the announce nonce being answered.
+        robot_nonce: Nonce,
+        /// Fresh host nonce for this session.
+        host_nonce: Nonce,
+    },
+    /// Target wheel speeds (RPM, output shaft).
+    WheelSpeed {
+        /// Left wheel RPM.
+        left_rpm: f32,
+        /// Right wheel RPM.
+        right_rpm: f32,
+    },
+    /// Open-loop duties for calibration (per-mille, −1000…1000).
+    RawDuty {
+        /// Left duty.
+        left: i16,
+        /// Right duty.
+        right: i16,
+    },
+    /// Stop both motors (not latched; a later command drives again).
+    Stop,
+    /// Stop and latch until [`HostMsg::ClearEmergencyStop`].
+    EmergencyStop,
+    /// Release a latched emergency stop (the robot stays stopped until the next command).
+    ClearEmergencyStop,
+    /// Set runtime parameters.
+    SetParams(ParamSet),
+    /// Round-trip probe.
+    Ping {
+        /// Sequence number echoed in the pong.
+        seq: u32,
+        /// Host send time (µs, host clock) echoed in the pong.
+        host_time_us: u64,
+    },
+}
+
+/// Fault and state flags in telemetry (bit set).
+pub mod flags {
+    /// Failsafe has stopped the motors (no valid command within the timeout).
+    pub const FAILSAFE: u16 = 1 << 0;
+    /// Emergency stop latched.
+    pub const ESTOP: u16 = 1 << 1;
+    /// The robot has no key and will never drive.
+    pub const UNPROVISIONED: u16 = 1 << 2;
+    /// Encoder saw illegal transitions since the last report.
+    pub const ENCODER_ERROR: u16 = 1 << 3;
+    /// Battery below the low-voltage threshold.
+    pub const LOW_BATTERY: u16 = 1 << 4;
+    /// Open-loop (raw-duty) mode active.
+    pub const RAW_DUTY: u16 = 1 << 5;
+    /// A PI output is saturated.
+    pub const SATURATED: u16 = 1 << 6;
+}
+
+/// Periodic robot state (DESIGN.md §4).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// Robot uptime (ms).
+    pub uptime_ms: u32,
+    /// Measured wheel speeds, left and right (RPM).
+    pub measured_rpm: [f32; 2],
+    /// Target wheel speeds in force (RPM).
+    pub target_rpm: [f32; 2],
+    /// Applied duties (per-mille).
+    pub duty: [i16; 2],
+    /// Cumulative encoder counts.
+    pub encoder_counts: [i32; 2],
+    /// Battery voltage (mV).
+    pub battery_mv: u16,
+    /// Wi-Fi RSSI (dBm).
+    pub rssi_dbm: i8,
+    /// [`flags`] bit set.
+    pub flags: u16,
+    /// Counter of the last host command applied (for round-trip time and loss).
+    pub last_command_counter: u64,
+}
+
+/// Why a [`ParamSet`] was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ParamRejection {
+    /// A gain is negative, not finite or above the sane bound.
+    GainOutOfRange,
+    /// Failsafe timeout outside 20…2000 ms.
+    FailsafeTimeoutOutOfRange,
+    /// Telemetry rate above 100 Hz.
+    TelemetryRateOutOfRange,
+}
+
+/// Largest accepted PI gain (either term).
+pub const MAX_GAIN: f32 = 1000.0;
+
+impl ParamSet {
+    /// Check the set against sane ranges; firmware applies only a set that passes.
+    pub fn check(&self) -> Result<(), ParamRejection> {
+        for g in &self.pi {
+            if !(g.kp.is_finite() && g.ki.is_finite())
+                || g.kp < 0.0
+                || g.ki < 0.0
+                || g.kp > MAX_GAIN
+                || g.ki > MAX_GAIN
+            {
+                return Err(ParamRejection::GainOutOfRange);
+            }
+        }
+        if !(20..=2000).contains(&self.failsafe_timeout_ms) {
+            return Err(ParamRejection::FailsafeTimeoutOutOfRange);
+        }
+        if self.telemetry_hz > 100 {
+            return Err(ParamRejection::TelemetryRateOutOfRange);
+        }
+        Ok(())
+    }
+}
+
+impl HostMsg {
+    /// Structural validity of the numbers (finite, in range); a failing message is
+    /// rejected as [`crate::Rejection::MalformedPayload`] before it reaches control code.
+    pub fn validate(&self) -> bool {
+        match self {
+            HostMsg::WheelSpeed {
+                left_rpm,
+                right_rpm,
+            } => [left_rpm, right_rpm]
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= MAX_COMMAND_RPM),
+            HostMsg::RawDuty { left, right } => {
+                left.abs() <= DUTY_FULL_SCALE && right.abs() <= DUTY_FULL_SCALE
+            }
+            // Parameter sets are range-checked by the robot with a reason reply.
+            _ => true,
+        }
+    }
+
+    /// True for frames of the hello stream.
+    pub fn is_hello(&self) -> bool {
+        matches!(self, HostMsg::Welcome { .. })
+    }
+}
+
+impl RobotMsg {
+    /// Structural validity of the numbers (telemetry floats finite).
+    pub fn validate(&self) -> bool {
+        match self {
+            RobotMsg::Telemetry(t) => t
+                .measured_rpm
+                .iter()
+                .chain(t.target_rpm.iter())
+                .all(|v| v.is_finite()),
+            _ => true,
+        }
+    }
+
+    /// True for frames of the hello stream.
+    pub fn is_hello(&self) -> bool {
+        matches!(self, RobotMsg::Announce(_))
+    }
+}
+
+/// Messages that can travel in an envelope: their direction and validity.
+pub trait Message: Serialize + for<'de> Deserialize<'de> {
+    /// The direction this message type travels.
+    const DIRECTION: crate::Direction;
+    /// Numbers finite and in range.
+    fn valid(&self) -> bool;
+    /// Belongs to the hello stream.
+    fn hello(&self) -> bool;
+}
+
+impl Message for HostMsg {
+    const DIRECTION: crate::Direction = crate::Direction::HostToRobot;
+    fn valid(&self) -> bool {
+        self.validate()
+    }
+    fn hello(&self) -> bool {
+        self.is_hello()
+    }
+}
+
+impl Message for RobotMsg {
+    const DIRECTION: crate::Direction = crate::Direction::RobotToHost;
+    fn valid(&self) -> bool {
+        self.validate()
+    }
+    fn hello(&self) -> bool {
+        self.is_hello()
+    }
+}
