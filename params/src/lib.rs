@@ -20,6 +20,8 @@ pub mod load;
 pub mod mass;
 pub mod plant;
 pub mod rates;
+#[cfg(feature = "std")]
+pub mod terrain;
 
 pub use puzzlebot_protocol::RobotKind;
 
