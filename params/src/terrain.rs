@@ -62,7 +62,12 @@ impl Terrain {
         Terrain {
             platforms: vec![
                 Platform::rect("near", [edge_x - depth, -hw], [edge_x, hw], height),
-                Platform::rect("far", [edge_x + gap, -hw], [edge_x + gap + depth, hw], height),
+                Platform::rect(
+                    "far",
+                    [edge_x + gap, -hw],
+                    [edge_x + gap + depth, hw],
+                    height,
+                ),
             ],
         }
     }

@@ -21,6 +21,7 @@
 pub mod crypto;
 pub mod envelope;
 pub mod messages;
+pub mod pose;
 pub mod reject;
 pub mod replay;
 pub mod session;
