@@ -7,6 +7,7 @@
 
 use hmac::{Hmac, Mac};
 use sha2::Sha256;
+use subtle::ConstantTimeEq;
 
 type HmacSha256 = Hmac<Sha256>;
 
@@ -18,8 +19,15 @@ pub type Nonce = [u8; NONCE_LEN];
 macro_rules! key_type {
     ($(#[$m:meta])* $name:ident) => {
         $(#[$m])*
-        #[derive(Clone, PartialEq, Eq)]
+        #[derive(Clone)]
         pub struct $name(pub [u8; 32]);
+        impl PartialEq for $name {
+            /// Constant-time comparison (no early exit that leaks where keys differ).
+            fn eq(&self, other: &Self) -> bool {
+                bool::from(self.0.ct_eq(&other.0))
+            }
+        }
+        impl Eq for $name {}
         impl core::fmt::Debug for $name {
             fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
                 // Keys are never logged.

@@ -201,9 +201,16 @@ pub struct HostSession {
     hello_rx: ReplayWindow,
     /// Session the robot has proven (a valid frame arrived under it).
     active: Option<Active>,
-    /// Session offered by our latest welcome, not yet proven.
-    pending: Option<Active>,
+    /// Sessions offered by our latest welcomes, not yet proven (newest last).
+    ///
+    /// More than one is kept so that a single replayed old announce cannot push the
+    /// robot's genuine, not yet proven offer out (the robot would then be locked out
+    /// until its failsafe makes it announce again).
+    pending: [Option<Active>; PENDING_OFFERS],
 }
+
+/// How many unproven session offers the host keeps per robot.
+pub const PENDING_OFFERS: usize = 4;
 
 impl HostSession {
     /// Host side for robot `robot_id` with its derived key.
@@ -216,7 +223,7 @@ impl HostSession {
             hello_tx: 0,
             hello_rx: ReplayWindow::new(),
             active: None,
-            pending: None,
+            pending: [const { None }; PENDING_OFFERS],
         }
     }
 
@@ -233,7 +240,23 @@ impl HostSession {
     /// Forget every session (robot marked offline); the robot must announce again.
     pub fn reset(&mut self) {
         self.active = None;
-        self.pending = None;
+        self.pending = [const { None }; PENDING_OFFERS];
+    }
+
+    /// True when at least one offered session (welcome sent) is not yet proven.
+    pub fn has_pending(&self) -> bool {
+        self.pending.iter().any(Option::is_some)
+    }
+
+    /// Remember a new offer, evicting the oldest when all slots are taken.
+    fn offer(&mut self, a: Active) {
+        match self.pending.iter().position(Option::is_none) {
+            Some(i) => self.pending[i] = Some(a),
+            None => {
+                self.pending.rotate_left(1);
+                self.pending[PENDING_OFFERS - 1] = Some(a);
+            }
+        }
     }
 
     /// Handle a frame from this robot. `fresh_host_nonce` is called only when a new
@@ -258,27 +281,26 @@ impl HostSession {
                     return Err(Rejection::BadFlags);
                 };
                 // Announce counters restart at boot; they are not replay-checked here
-                // (a replayed announce only yields an unproven pending session, which
-                // never displaces the proven one). Record them for statistics only.
+                // (a replayed announce only yields an unproven pending offer, which
+                // never displaces the proven session). Recorded for statistics only.
                 let _ = self.hello_rx.accept(h.counter);
-                let known = [self.pending.as_ref(), self.active.as_ref()]
-                    .into_iter()
+                let known = self
+                    .pending
+                    .iter()
                     .flatten()
+                    .chain(self.active.as_ref())
                     .find(|a| a.robot_nonce == announce.robot_nonce)
                     .map(|a| a.host_nonce);
                 let (host_nonce, new_session) = match known {
                     Some(n) => (n, false),
-                    None => {
-                        let n = fresh_host_nonce();
-                        self.pending = Some(Active::new(&self.key, announce.robot_nonce, n));
-                        (n, true)
-                    }
+                    None => (fresh_host_nonce(), true),
                 };
                 let welcome = HostMsg::Welcome {
                     robot_nonce: announce.robot_nonce,
                     host_nonce,
                 };
-                let c = next_counter(&mut self.hello_tx).map_err(|_| Rejection::NoSession)?;
+                // Seal before touching any state, so a too-small `out` changes nothing.
+                let c = self.hello_tx;
                 let welcome_len = seal_as(
                     &self.hello_key,
                     self.robot_id,
@@ -288,6 +310,10 @@ impl HostSession {
                     out,
                 )
                 .map_err(|_| Rejection::NoSession)?;
+                self.hello_tx += 1;
+                if new_session {
+                    self.offer(Active::new(&self.key, announce.robot_nonce, host_nonce));
+                }
                 Ok(HostReceived::Announce {
                     announce,
                     welcome_len,
@@ -295,31 +321,49 @@ impl HostSession {
                 })
             }
             Stream::Session => {
+                // Try the proven session first; only a frame that does not verify under
+                // it (BadTag) may belong to a newer offer. Any other verdict (replay,
+                // too old, malformed) is final and reported as such.
+                let mut last = if self.active.is_some() {
+                    Rejection::BadTag
+                } else {
+                    Rejection::NoSession
+                };
                 if let Some(a) = self.active.as_mut() {
-                    if let Ok((h, msg)) = open::<RobotMsg>(&a.key, frame) {
-                        a.rx.accept(h.counter)?;
-                        return Ok(HostReceived::Message(h, msg));
+                    match open::<RobotMsg>(&a.key, frame) {
+                        Ok((h, msg)) => {
+                            a.rx.accept(h.counter)?;
+                            return Ok(HostReceived::Message(h, msg));
+                        }
+                        Err(Rejection::BadTag) => {}
+                        Err(e) => return Err(e),
                     }
                 }
-                let Some(p) = self.pending.as_mut() else {
-                    return Err(if self.active.is_some() {
-                        Rejection::BadTag
-                    } else {
-                        Rejection::NoSession
-                    });
-                };
-                let (h, msg) = open::<RobotMsg>(&p.key, frame)?;
-                p.rx.accept(h.counter)?;
-                // The robot proved the pending session: it replaces the old one.
-                self.active = self.pending.take();
-                Ok(HostReceived::Message(h, msg))
+                for i in (0..PENDING_OFFERS).rev() {
+                    let Some(p) = self.pending[i].as_mut() else {
+                        continue;
+                    };
+                    match open::<RobotMsg>(&p.key, frame) {
+                        Ok((h, msg)) => {
+                            p.rx.accept(h.counter)?;
+                            // The robot proved this offer: it replaces the old session, and
+                            // every other unproven offer is void.
+                            self.active = self.pending[i].take();
+                            self.pending = [const { None }; PENDING_OFFERS];
+                            return Ok(HostReceived::Message(h, msg));
+                        }
+                        Err(e) => last = e,
+                    }
+                }
+                Err(last)
             }
         }
     }
 
     /// Seal a command under the proven session (or, before any proof, the pending one).
     pub fn send(&mut self, msg: &HostMsg, out: &mut [u8]) -> Result<usize, EncodeError> {
-        let a = match (self.active.as_mut(), self.pending.as_mut()) {
+        let newest_pending = self.pending.iter_mut().rev().flatten().next();
+        let a = match (self.active.as_mut(), newest_pending) {
             (Some(a), _) => a,
             (None, Some(p)) => p,
             (None, None) => return Err(EncodeError::NoSession),
