@@ -25,6 +25,20 @@ pub struct Firmware {
     pub encoder_edges_per_rev: u16,
     /// Battery voltage below which telemetry flags a low battery (mV).
     pub low_battery_mv: u16,
+    /// Feed-forward slope: duty (per-mille) per wheel RPM above the dead-band.
+    pub ff_duty_per_rpm: f32,
+    /// Feed-forward start-up offset: the duty (per-mille) at which a wheel starts to turn,
+    /// i.e. the dead-band M_min of THESIS 3.4 expressed as duty.
+    pub ff_deadband_duty: f32,
+    /// Largest duty change per second (per-mille/s): the output slew limit.
+    pub duty_slew_per_s: f32,
+    /// No encoder edge for this long means the wheel stands still (ms).
+    pub standstill_after_ms: u16,
+    /// Announce repetition interval until welcomed (ms).
+    pub announce_interval_ms: u16,
+    /// No valid frame from the host for this long drops the session and announces again
+    /// with a fresh nonce (ms), so a restarted host can reconnect.
+    pub relink_after_ms: u16,
 }
 
 impl Default for Firmware {
@@ -32,7 +46,9 @@ impl Default for Firmware {
         Firmware {
             loop_hz: 50.0,
             schedule_rpm: [123.0, 265.0, 495.0],
-            // Placeholder gains; firmware/core tunes and documents them against the plant.
+            // Tuned in `firmware/core` (tests `pi_step_*`) against the first-order motor model
+            // documented in `puzzlebot_firmware_core::model`: no-load 520 RPM at full duty
+            // and 3.7 V, time constant 30 ms, dead-band 80 per-mille.
             pi: [
                 PiGains { kp: 1.0, ki: 10.0 },
                 PiGains { kp: 1.0, ki: 10.0 },
@@ -43,6 +59,13 @@ impl Default for Firmware {
             telemetry_hz: 50,
             encoder_edges_per_rev: 48,
             low_battery_mv: 3400,
+            // 1000 − 80 per-mille span 520 RPM (model above): 920 / 520 ≈ 1.77.
+            ff_duty_per_rpm: 1.77,
+            ff_deadband_duty: 80.0,
+            duty_slew_per_s: 20_000.0,
+            standstill_after_ms: 150,
+            announce_interval_ms: 250,
+            relink_after_ms: 1000,
         }
     }
 }
