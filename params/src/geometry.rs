@@ -22,6 +22,13 @@ pub struct Geometry {
     pub anchor_opening: [f32; 2],
     /// Knob centre on the left side (m); the right side carries the hole at the mirror point.
     pub knob_left: [f32; 2],
+    /// x offset (±) of the two connection points on each side (m); the left side carries the
+    /// knobs, the right side the holes. THESIS Fig 5.12 (six connection points) and 5.2.2 (mesh
+    /// rows offset by half a body put a knob onto a hole): L/4 = 12.5 mm.
+    pub side_point_x: f32,
+    /// How far a knob stands out of the side face (m); its tip is the augmented knob point of
+    /// THESIS Fig 5.14. Not given as a number in THESIS; 3 mm estimated from Fig 2.3.
+    pub knob_length: f32,
     /// Height of the centre of mass above the ground (m), used by the stability gate.
     pub com_height: f32,
 }
@@ -37,6 +44,8 @@ impl Default for Geometry {
             anchor_head: [-0.032, 0.0],
             anchor_opening: [0.025, 0.0],
             knob_left: [0.0, 0.025],
+            side_point_x: 0.0125,
+            knob_length: 0.003,
             // Not given in THESIS; battery and motors sit low: about 40 % of the height.
             com_height: 0.022,
         }

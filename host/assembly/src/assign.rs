@@ -1,0 +1,542 @@
+//! Connection-pair assignment: THESIS Algorithm 1 (find existing pairs by a minimum spanning
+//! tree over the distance graph and minimum-distance connection points), Algorithm 2 (align
+//! the goal to the fleet's centre (3.9), convex-first ordering, Hungarian matching), 5.4.3.
+
+use crate::geom::{dist, pair_type, wrap_angle, ConnPoint, PairType, PointRole, Pose2};
+use crate::shape::{GoalPair, Shape, ShapeError, ShapeSpec, CONTACT_TOLERANCE};
+use pathfinding::matrix::Matrix;
+use petgraph::data::Element;
+use petgraph::graph::UnGraph;
+use puzzlebot_params::geometry::Geometry;
+use puzzlebot_params::RobotKind;
+use puzzlebot_protocol::messages::RobotId;
+use serde::{Deserialize, Serialize};
+
+/// A robot as the planner sees it: id, kind and measured pose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RobotState {
+    /// Fleet id.
+    pub id: RobotId,
+    /// Pilot or non-pilot.
+    pub kind: RobotKind,
+    /// Measured pose (world frame).
+    pub pose: Pose2,
+}
+
+/// The closest compatible pair of connection points of two robots and its distance.
+pub fn closest_points(pa: &Pose2, pb: &Pose2, g: &Geometry) -> Option<(ConnPoint, ConnPoint, f64)> {
+    let mut best: Option<(ConnPoint, ConnPoint, f64)> = None;
+    for ca in ConnPoint::ALL {
+        let wa = pa.transform(ca.position(g));
+        for cb in ConnPoint::ALL {
+            if pair_type(ca, cb).is_none() {
+                continue;
+            }
+            let d = dist(wa, pb.transform(cb.position(g)));
+            if best.is_none_or(|b| d < b.2) {
+                best = Some((ca, cb, d));
+            }
+        }
+    }
+    best
+}
+
+/// THESIS Algorithm 1 (FindExistPairs): the pairs that hold configuration `poses` together.
+///
+/// Vertices are the robots, edges weighted by centre distance; the minimum spanning tree
+/// (petgraph, Kruskal) picks the pairs to monitor and each edge takes the closest compatible
+/// connection points. Only robot pairs whose compatible points meet within
+/// [`CONTACT_TOLERANCE`] are edges, so a disconnected configuration yields fewer than n − 1
+/// pairs. Each pair is oriented so that `a` carries the anchor or the knob.
+pub fn find_pairs(poses: &[Pose2], g: &Geometry) -> Vec<GoalPair> {
+    find_pairs_within(poses, g, CONTACT_TOLERANCE)
+}
+
+/// [`find_pairs`] with an explicit contact tolerance (m).
+pub fn find_pairs_within(poses: &[Pose2], g: &Geometry, tolerance: f64) -> Vec<GoalPair> {
+    let n = poses.len();
+    let mut graph: UnGraph<usize, f64> = UnGraph::with_capacity(n, n * 2);
+    let nodes: Vec<_> = (0..n).map(|i| graph.add_node(i)).collect();
+    let mut contact = std::collections::HashMap::new();
+    for i in 0..n {
+        for j in i + 1..n {
+            let centre = poses[i].distance(&poses[j]);
+            // Two bodies further apart than their diagonals plus the tolerance cannot touch.
+            if centre > 2.0 * f64::from(g.length.max(g.width)) + tolerance {
+                continue;
+            }
+            if let Some((ci, cj, d)) = closest_points(&poses[i], &poses[j], g) {
+                if d <= tolerance {
+                    graph.add_edge(nodes[i], nodes[j], centre);
+                    contact.insert((i, j), (ci, cj, d));
+                }
+            }
+        }
+    }
+    let mut pairs = Vec::new();
+    for e in petgraph::algo::min_spanning_tree(&graph) {
+        if let Element::Edge {
+            source,
+            target,
+            weight,
+        } = e
+        {
+            let (i, j) = (source.min(target), source.max(target));
+            let (ci, cj, d) = contact[&(i, j)];
+            pairs.push(orient(i, ci, j, cj, weight, d));
+        }
+    }
+    pairs
+}
+
+fn orient(
+    i: usize,
+    ci: ConnPoint,
+    j: usize,
+    cj: ConnPoint,
+    centre: f64,
+    residual: f64,
+) -> GoalPair {
+    let kind = pair_type(ci, cj).expect("closest_points returns compatible points");
+    let i_is_male = matches!(ci.role(), PointRole::Anchor | PointRole::Knob);
+    let (a, pa, b, pb) = if i_is_male {
+        (i, ci, j, cj)
+    } else {
+        (j, cj, i, ci)
+    };
+    GoalPair {
+        a,
+        point_a: pa,
+        b,
+        point_b: pb,
+        kind,
+        centre_distance: centre,
+        residual,
+    }
+}
+
+/// Distance bucket used for convex-first ordering (0.1 mm), so that numerically equal
+/// distances compare equal.
+pub fn distance_bucket(d: f64) -> i64 {
+    (d * 1e4).round() as i64
+}
+
+/// Convex-first order (THESIS 3.3.3, 5.4.3): ascending distance between the slot centres,
+/// so that line (front–back) pairs come before the side pairs that join rows into a mesh;
+/// ties by type (anchor first) and slot index, for a deterministic queue.
+pub fn sort_convex_first(pairs: &mut [GoalPair]) {
+    pairs.sort_by_key(|p| {
+        (
+            distance_bucket(p.centre_distance),
+            match p.kind {
+                PairType::AnchorOpening => 0,
+                PairType::KnobHole => 1,
+            },
+            p.a.min(p.b),
+            p.a.max(p.b),
+        )
+    });
+}
+
+/// Shift goal poses so their centroid lies on the robots' centroid (THESIS (3.9):
+/// p'_g = p_g − p̄_g + p̄); headings are kept.
+pub fn align_center(goal: &[Pose2], robots: &[Pose2]) -> Vec<Pose2> {
+    if goal.is_empty() || robots.is_empty() {
+        return goal.to_vec();
+    }
+    let mean = |p: &[Pose2]| {
+        let n = p.len() as f64;
+        (
+            p.iter().map(|q| q.x).sum::<f64>() / n,
+            p.iter().map(|q| q.y).sum::<f64>() / n,
+        )
+    };
+    let (gx, gy) = mean(goal);
+    let (rx, ry) = mean(robots);
+    goal.iter()
+        .map(|p| Pose2::new(p.x - gx + rx, p.y - gy + ry, p.yaw))
+        .collect()
+}
+
+/// Circular mean of headings (rad); 0 for an empty or balanced set.
+pub fn mean_heading(poses: &[Pose2]) -> f64 {
+    let (s, c) = poses
+        .iter()
+        .fold((0.0, 0.0), |(s, c), p| (s + p.yaw.sin(), c + p.yaw.cos()));
+    if s.hypot(c) < 1e-9 {
+        0.0
+    } else {
+        s.atan2(c)
+    }
+}
+
+/// Cost of an infeasible slot–robot match (kind mismatch); large but overflow-safe for
+/// thousands of slots.
+const FORBIDDEN: i64 = 1_000_000_000_000_000;
+
+/// Squared distance scaled to an integer cost (1e-9 m² resolution) for kuhn_munkres.
+fn cost(d2: f64) -> i64 {
+    (d2 * 1e9).round().min(1e14) as i64
+}
+
+/// Hungarian matching of goal slots to robots (THESIS Algorithm 2 line 6, d_ij = ‖p'_gi − p_j‖²),
+/// with the `pathfinding` crate's `kuhn_munkres_min`. Returns, for each slot, the index of the
+/// robot in `robots`, and the total squared distance. Slots with a kind accept only matching
+/// robots.
+pub fn hungarian(
+    goal: &[Pose2],
+    kinds: &[crate::shape::SlotKind],
+    robots: &[RobotState],
+) -> Result<(Vec<usize>, f64), PlanError> {
+    if goal.len() > robots.len() {
+        return Err(PlanError::NotEnoughRobots {
+            needed: goal.len(),
+            available: robots.len(),
+        });
+    }
+    if goal.is_empty() {
+        return Ok((Vec::new(), 0.0));
+    }
+    let mut data = Vec::with_capacity(goal.len() * robots.len());
+    for (i, gp) in goal.iter().enumerate() {
+        for r in robots {
+            let d2 = (gp.x - r.pose.x).powi(2) + (gp.y - r.pose.y).powi(2);
+            let ok = kinds.get(i).is_none_or(|k| k.accepts(r.kind));
+            data.push(if ok { cost(d2) } else { FORBIDDEN });
+        }
+    }
+    let m = Matrix::from_vec(goal.len(), robots.len(), data).expect("sizes match");
+    let (_, assignment) = pathfinding::kuhn_munkres::kuhn_munkres_min(&m);
+    let mut total = 0.0;
+    for (i, &r) in assignment.iter().enumerate() {
+        if !kinds.get(i).is_none_or(|k| k.accepts(robots[r].kind)) {
+            return Err(PlanError::KindsUnsatisfiable);
+        }
+        total += (goal[i].x - robots[r].pose.x).powi(2) + (goal[i].y - robots[r].pose.y).powi(2);
+    }
+    Ok((assignment, total))
+}
+
+/// A planned connection pair between two robots (a goal pair mapped onto robots).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PlannedPair {
+    /// Position in the convex-first queue (0 first).
+    pub order: usize,
+    /// Robot carrying the anchor (back) or knob (left side): THESIS `anchor_index`.
+    pub a: RobotId,
+    /// Its connection point.
+    pub point_a: ConnPoint,
+    /// Robot with the opening or hole (THESIS `body_index`).
+    pub b: RobotId,
+    /// Its connection point.
+    pub point_b: ConnPoint,
+    /// Anchor–opening or knob–hole.
+    pub kind: PairType,
+    /// Goal slot of `a`.
+    pub slot_a: usize,
+    /// Goal slot of `b`.
+    pub slot_b: usize,
+    /// Target yaw of `a` minus yaw of `b` when coupled (rad).
+    pub relative_yaw: f64,
+    /// Distance between the goal slot centres (m), the convex-first key.
+    pub centre_distance: f64,
+}
+
+impl PlannedPair {
+    /// Identity of a pair independent of its place in a plan.
+    pub fn key(&self) -> (RobotId, ConnPoint, RobotId, ConnPoint) {
+        (self.a, self.point_a, self.b, self.point_b)
+    }
+
+    /// True when `robot` is one of the two robots.
+    pub fn involves(&self, robot: RobotId) -> bool {
+        self.a == robot || self.b == robot
+    }
+}
+
+/// Result of THESIS Algorithm 2 for one shape and fleet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// How the shape was built (kept for re-planning).
+    pub spec: ShapeSpec,
+    /// The shape (slots centred on their centroid).
+    pub shape: Shape,
+    /// Heading the shape was placed with (rad).
+    pub heading: f64,
+    /// World goal pose of each slot (after (3.9) and the heading).
+    pub goal_poses: Vec<Pose2>,
+    /// Robot filling each slot.
+    pub slot_robot: Vec<RobotId>,
+    /// Pairs in convex-first order.
+    pub pairs: Vec<PlannedPair>,
+    /// Sum of squared distances of the matching (m²).
+    pub matching_cost: f64,
+    /// Pairs between two pilots: they can only couple once one pilot is part of an assembly
+    /// with a non-pilot (THESIS 3.5.2).
+    pub pilot_pilot_pairs: Vec<usize>,
+}
+
+impl Plan {
+    /// Slot of `robot`, if it is in the plan.
+    pub fn slot_of(&self, robot: RobotId) -> Option<usize> {
+        self.slot_robot.iter().position(|&r| r == robot)
+    }
+
+    /// World goal pose of `robot`, if it is in the plan.
+    pub fn goal_of(&self, robot: RobotId) -> Option<Pose2> {
+        self.slot_of(robot).map(|s| self.goal_poses[s])
+    }
+}
+
+/// Why a plan could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// Fewer robots than slots.
+    #[error("the shape needs {needed} robots, {available} available")]
+    NotEnoughRobots {
+        /// Slots.
+        needed: usize,
+        /// Robots.
+        available: usize,
+    },
+    /// Slot kinds (pilot / non-pilot) cannot be met by this fleet.
+    #[error("the fleet's pilot / non-pilot mix cannot fill the shape's slot kinds")]
+    KindsUnsatisfiable,
+    /// The shape could not be built.
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
+    /// A robot pose is not finite.
+    #[error("robot {0}: pose is not finite")]
+    BadPose(RobotId),
+    /// Two robots share an id.
+    #[error("robot id {0} appears twice")]
+    DuplicateRobot(RobotId),
+}
+
+/// THESIS Algorithm 2 (AssignConnectionPairs): build the shape for the fleet, place it on the
+/// fleet's centre (3.9) with `heading` (default: the circular mean of the robots' headings),
+/// find its pairs (Algorithm 1), sort them convex-first, match robots to slots (Hungarian) and
+/// map the pairs onto robots. All robots in `robots` take part.
+pub fn assign_connection_pairs(
+    spec: &ShapeSpec,
+    robots: &[RobotState],
+    heading: Option<f64>,
+    g: &Geometry,
+) -> Result<Plan, PlanError> {
+    let mut seen = std::collections::HashSet::new();
+    for r in robots {
+        if !r.pose.is_finite() {
+            return Err(PlanError::BadPose(r.id));
+        }
+        if !seen.insert(r.id) {
+            return Err(PlanError::DuplicateRobot(r.id));
+        }
+    }
+    let shape = spec.build(robots.len(), g)?;
+    let poses: Vec<Pose2> = robots.iter().map(|r| r.pose).collect();
+    let heading = heading.unwrap_or_else(|| mean_heading(&poses));
+    let oriented = shape.placed([0.0, 0.0], heading);
+    let goal = align_center(&oriented, &poses);
+    let kinds: Vec<_> = shape.slots.iter().map(|s| s.kind).collect();
+    let (assign, total) = hungarian(&goal, &kinds, robots)?;
+    let slot_robot: Vec<RobotId> = assign.iter().map(|&r| robots[r].id).collect();
+    let kind_of = |slot: usize| robots[assign[slot]].kind;
+    let goal_pairs = shape.pairs(g);
+    let mut pairs = Vec::with_capacity(goal_pairs.len());
+    let mut pilot_pilot = Vec::new();
+    for (order, gp) in goal_pairs.iter().enumerate() {
+        if kind_of(gp.a) == RobotKind::Pilot && kind_of(gp.b) == RobotKind::Pilot {
+            pilot_pilot.push(order);
+        }
+        pairs.push(PlannedPair {
+            order,
+            a: slot_robot[gp.a],
+            point_a: gp.point_a,
+            b: slot_robot[gp.b],
+            point_b: gp.point_b,
+            kind: gp.kind,
+            slot_a: gp.a,
+            slot_b: gp.b,
+            relative_yaw: wrap_angle(shape.slots[gp.a].pose.yaw - shape.slots[gp.b].pose.yaw),
+            centre_distance: gp.centre_distance,
+        });
+    }
+    Ok(Plan {
+        spec: spec.clone(),
+        shape,
+        heading,
+        goal_poses: goal,
+        slot_robot,
+        pairs,
+        matching_cost: total,
+        pilot_pilot_pairs: pilot_pilot,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shape::SlotKind;
+
+    fn g() -> Geometry {
+        Geometry::default()
+    }
+
+    fn robot(id: RobotId, x: f64, y: f64) -> RobotState {
+        RobotState {
+            id,
+            kind: RobotKind::NonPilot,
+            pose: Pose2::new(x, y, 0.0),
+        }
+    }
+
+    #[test]
+    fn line_pairs_are_anchor_front_back() {
+        let s = Shape::line(4, &g()).unwrap();
+        let p = s.pairs(&g());
+        assert_eq!(p.len(), 3);
+        for gp in &p {
+            assert_eq!(gp.kind, PairType::AnchorOpening);
+            assert_eq!(gp.point_a, ConnPoint::Back);
+            assert_eq!(gp.point_b, ConnPoint::Front);
+            // The anchor robot is the one in front.
+            assert!(s.slots[gp.a].pose.x > s.slots[gp.b].pose.x);
+            assert!(gp.residual < 1e-9);
+        }
+    }
+
+    #[test]
+    fn mesh_2x2_pairs_rows_first_then_one_knob() {
+        let s = Shape::mesh(4, 2, &g()).unwrap();
+        let p = s.pairs(&g());
+        assert_eq!(p.len(), 3);
+        assert_eq!(p[0].kind, PairType::AnchorOpening);
+        assert_eq!(p[1].kind, PairType::AnchorOpening);
+        assert_eq!(p[2].kind, PairType::KnobHole);
+        let k = p[2];
+        assert!(matches!(
+            k.point_a,
+            ConnPoint::LeftFront | ConnPoint::LeftBack
+        ));
+        assert!(matches!(
+            k.point_b,
+            ConnPoint::RightFront | ConnPoint::RightBack
+        ));
+        // Knob robot is in the first row (y lower), hole robot in the second.
+        assert!(s.slots[k.a].pose.y < s.slots[k.b].pose.y);
+        assert!(p[0].centre_distance < p[2].centre_distance);
+    }
+
+    fn brute_force(goal: &[Pose2], robots: &[RobotState]) -> f64 {
+        fn rec(
+            i: usize,
+            goal: &[Pose2],
+            robots: &[RobotState],
+            used: &mut Vec<bool>,
+            acc: f64,
+            best: &mut f64,
+        ) {
+            if i == goal.len() {
+                *best = best.min(acc);
+                return;
+            }
+            for r in 0..robots.len() {
+                if !used[r] {
+                    used[r] = true;
+                    let d2 = (goal[i].x - robots[r].pose.x).powi(2)
+                        + (goal[i].y - robots[r].pose.y).powi(2);
+                    rec(i + 1, goal, robots, used, acc + d2, best);
+                    used[r] = false;
+                }
+            }
+        }
+        let mut best = f64::INFINITY;
+        rec(
+            0,
+            goal,
+            robots,
+            &mut vec![false; robots.len()],
+            0.0,
+            &mut best,
+        );
+        best
+    }
+
+    #[test]
+    fn hungarian_matches_brute_force() {
+        // Deterministic pseudo-random cases (LCG), 2..=6 slots, up to 7 robots.
+        let mut seed: u64 = 0x1234_5678;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 33) as f64 / (1u64 << 31) as f64) - 0.5
+        };
+        for case in 0..60 {
+            let n = 2 + case % 5;
+            let m = n + case % 2;
+            let goal: Vec<Pose2> = (0..n).map(|_| Pose2::new(rnd(), rnd(), 0.0)).collect();
+            let robots: Vec<RobotState> =
+                (0..m).map(|i| robot(i as RobotId, rnd(), rnd())).collect();
+            let kinds = vec![SlotKind::Any; n];
+            let (assign, total) = hungarian(&goal, &kinds, &robots).unwrap();
+            let mut sorted = assign.clone();
+            sorted.sort();
+            sorted.dedup();
+            assert_eq!(sorted.len(), n, "assignment must be injective");
+            let best = brute_force(&goal, &robots);
+            assert!(
+                (total - best).abs() < 1e-6 * n as f64,
+                "case {case}: {total} vs {best}"
+            );
+        }
+    }
+
+    #[test]
+    fn hungarian_respects_slot_kinds() {
+        let goal = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 0.0, 0.0)];
+        let mut robots = vec![robot(1, 0.0, 0.0), robot(2, 1.0, 0.0)];
+        robots[1].kind = RobotKind::Pilot;
+        let (a, _) = hungarian(&goal, &[SlotKind::Pilot, SlotKind::Any], &robots).unwrap();
+        assert_eq!(a, vec![1, 0]);
+        let err = hungarian(&goal, &[SlotKind::Pilot, SlotKind::Pilot], &robots);
+        assert!(matches!(err, Err(PlanError::KindsUnsatisfiable)));
+    }
+
+    #[test]
+    fn align_center_moves_centroid() {
+        let goal = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 0.0)];
+        let robots = vec![Pose2::new(5.0, 5.0, 0.0), Pose2::new(7.0, 7.0, 0.0)];
+        let a = align_center(&goal, &robots);
+        assert!((a[0].x - 5.0).abs() < 1e-12 && (a[0].y - 6.0).abs() < 1e-12);
+        assert!((a[1].x - 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn plan_maps_pairs_to_nearest_robots() {
+        // Robots already roughly in a line, scrambled ids: the plan must pair neighbours.
+        let robots = vec![robot(7, 0.10, 0.0), robot(3, 0.0, 0.0), robot(9, 0.05, 0.0)];
+        let plan = assign_connection_pairs(&ShapeSpec::Line, &robots, Some(0.0), &g()).unwrap();
+        assert_eq!(plan.pairs.len(), 2);
+        let mut keys: Vec<_> = plan.pairs.iter().map(|p| (p.a, p.b)).collect();
+        keys.sort();
+        // The robot in front carries the anchor into the opening of the one behind.
+        assert_eq!(keys, vec![(7, 9), (9, 3)]);
+        assert!(plan.matching_cost < 1e-9);
+    }
+
+    #[test]
+    fn duplicate_and_missing_robots_are_errors() {
+        let robots = vec![robot(1, 0.0, 0.0), robot(1, 0.1, 0.0)];
+        assert!(matches!(
+            assign_connection_pairs(&ShapeSpec::Line, &robots, None, &g()),
+            Err(PlanError::DuplicateRobot(1))
+        ));
+        let mut r = robot(2, 0.0, 0.0);
+        r.pose.x = f64::NAN;
+        assert!(matches!(
+            assign_connection_pairs(&ShapeSpec::Line, &[r], None, &g()),
+            Err(PlanError::BadPose(2))
+        ));
+    }
+}

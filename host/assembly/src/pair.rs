@@ -1,0 +1,443 @@
+//! Augmented connection pairs (THESIS Algorithm 7) and their status machine
+//! decoupled → head aligned → head inserted → connected (THESIS Algorithm 8, 4.3.5, 5.5.5),
+//! decided from measured poses with tolerances from the shared parameter set.
+
+use crate::assign::PlannedPair;
+use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
+use puzzlebot_params::coupling::Coupling;
+use puzzlebot_params::geometry::Geometry;
+use serde::{Deserialize, Serialize};
+
+/// Status of one connection pair (THESIS Algorithm 8; `Connected` = moved to C_conn once the
+/// insertion has held for [`PairTolerances::confirm_s`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PairStatus {
+    /// Not coupled; the head is not at the opening / hole.
+    Decoupled,
+    /// The anchor head (knob tip) is aligned with the opening (hole).
+    HeadAligned,
+    /// The anchor (knob) is in; waiting for the confirmation time.
+    HeadInserted,
+    /// Coupled and confirmed: a pair to maintain (C_conn).
+    Connected,
+}
+
+impl std::fmt::Display for PairStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            PairStatus::Decoupled => "decoupled",
+            PairStatus::HeadAligned => "head_aligned",
+            PairStatus::HeadInserted => "head_inserted",
+            PairStatus::Connected => "connected",
+        })
+    }
+}
+
+/// Tolerances of the status machine.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PairTolerances {
+    /// Anchor head to opening alignment (m). THESIS 5.2.3: 3.5 mm (`Coupling::anchor_align_tolerance`).
+    pub anchor_align: f64,
+    /// Anchor base to opening distance when inserted (m): the coupled anchor's travel,
+    /// THESIS 4.2.2: 5 mm (`Coupling::anchor_travel`).
+    pub anchor_insert: f64,
+    /// Relative yaw allowed for an anchor pair (rad). THESIS 4.2.2: ±0.5 (`Coupling::anchor_yaw_range`).
+    pub anchor_yaw: f64,
+    /// Knob alignment and insertion (m). THESIS 5.2.3: < 1 mm (`Coupling::knob_align_tolerance`).
+    pub knob_align: f64,
+    /// Relative yaw allowed for a knob pair (rad): the knob tolerance over the distance
+    /// between the two knobs of a side, atan(knob_align / (2·side_point_x)).
+    pub knob_yaw: f64,
+    /// Knob length (m), from `Geometry::knob_length`.
+    pub knob_length: f64,
+    /// Anchor length behind the back face (m): back face x − anchor head x (7 mm).
+    pub anchor_length: f64,
+    /// A state is left only when its condition fails by this factor (> 1): hysteresis
+    /// against measurement noise.
+    pub hysteresis: f64,
+    /// A connected pair counts as lost only when its insertion condition fails by this
+    /// factor (≥ `hysteresis`).
+    pub release: f64,
+    /// Time the insertion must hold before the pair counts as connected (s).
+    pub confirm_s: f64,
+}
+
+impl Default for PairTolerances {
+    fn default() -> Self {
+        PairTolerances::from_params(&Geometry::default(), &Coupling::default())
+    }
+}
+
+impl PairTolerances {
+    /// Tolerances from the shared robot parameters.
+    pub fn from_params(g: &Geometry, c: &Coupling) -> Self {
+        let knob_align = f64::from(c.knob_align_tolerance);
+        PairTolerances {
+            anchor_align: f64::from(c.anchor_align_tolerance),
+            anchor_insert: f64::from(c.anchor_travel),
+            anchor_yaw: f64::from(c.anchor_yaw_range),
+            knob_align,
+            knob_yaw: (knob_align / (2.0 * f64::from(g.side_point_x)).max(1e-6)).atan(),
+            knob_length: f64::from(g.knob_length),
+            anchor_length: f64::from(-0.5 * g.length - g.anchor_head[0]).max(0.0),
+            hysteresis: 1.5,
+            release: 2.0,
+            confirm_s: 0.3,
+        }
+    }
+}
+
+/// Geometry of a pair measured in the frame of robot `b` (opening / hole side), relative to
+/// `b`'s connection point: "along" runs along `b`'s face, "gap" along its outward normal
+/// (positive outside).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PairMeasure {
+    /// |along| of the augmented head (anchor head / knob tip) (m).
+    pub head_along: f64,
+    /// Gap of the head (m).
+    pub head_gap: f64,
+    /// |along| of `a`'s connection point (m).
+    pub point_along: f64,
+    /// Gap of `a`'s connection point (m).
+    pub point_gap: f64,
+    /// Yaw error: (θ_a − θ_b) − target relative yaw, wrapped (rad).
+    pub yaw_error: f64,
+}
+
+/// Measure a pair (THESIS 5.11–5.15: `a`'s points expressed in `b`'s body frame).
+pub fn measure(
+    pose_a: &Pose2,
+    point_a: ConnPoint,
+    pose_b: &Pose2,
+    point_b: ConnPoint,
+    relative_yaw: f64,
+    g: &Geometry,
+) -> PairMeasure {
+    let o = point_b.position(g);
+    let (ns, nc) = point_b.normal().sin_cos();
+    let head = pose_b.inverse_transform(pose_a.transform(point_a.head(g)));
+    let point = pose_b.inverse_transform(pose_a.transform(point_a.position(g)));
+    let split = |p: [f64; 2]| {
+        let d = [p[0] - o[0], p[1] - o[1]];
+        let gap = d[0] * nc + d[1] * ns;
+        let along = -d[0] * ns + d[1] * nc;
+        (along.abs(), gap)
+    };
+    let (head_along, head_gap) = split(head);
+    let (point_along, point_gap) = split(point);
+    PairMeasure {
+        head_along,
+        head_gap,
+        point_along,
+        point_gap,
+        yaw_error: wrap_angle(pose_a.yaw - pose_b.yaw - relative_yaw),
+    }
+}
+
+/// Is the head aligned with the opening / hole, with tolerances scaled by `k`?
+///
+/// Anchor: the head lies within `anchor_align` of the segment from the opening inward by the
+/// anchor length (at the mouth or partly in), yaw within `anchor_yaw`. Knob: the tip is within
+/// `knob_align` along the face and at most `knob_align` outside the hole (THESIS 5.5.5: the
+/// augmented point is in the other robot's polygon within a margin ε).
+pub fn is_aligned(kind: PairType, m: &PairMeasure, t: &PairTolerances, k: f64) -> bool {
+    match kind {
+        PairType::AnchorOpening => {
+            let e = t.anchor_align * k;
+            m.head_along <= e
+                && m.head_gap <= e
+                && m.head_gap >= -(t.anchor_length + e)
+                && m.yaw_error.abs() <= t.anchor_yaw * k
+        }
+        PairType::KnobHole => {
+            let e = t.knob_align * k;
+            m.head_along <= e
+                && m.head_gap <= e
+                && m.head_gap >= -(t.knob_length + e)
+                && m.yaw_error.abs() <= t.knob_yaw * k
+        }
+    }
+}
+
+/// Is the anchor (knob) inserted, with tolerances scaled by `k`? `a`'s connection point meets
+/// `b`'s (THESIS Algorithm 5: C_i in polygon(R_j, ε)).
+pub fn is_inserted(kind: PairType, m: &PairMeasure, t: &PairTolerances, k: f64) -> bool {
+    match kind {
+        PairType::AnchorOpening => {
+            m.point_along <= t.anchor_align * k
+                && m.point_gap.abs() <= t.anchor_insert * k
+                && m.yaw_error.abs() <= t.anchor_yaw * k
+        }
+        PairType::KnobHole => {
+            m.point_along <= t.knob_align * k
+                && m.point_gap.abs() <= t.knob_align * k
+                && m.yaw_error.abs() <= t.knob_yaw * k
+        }
+    }
+}
+
+/// A status change of one pair.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Transition {
+    /// Time of the change (s).
+    pub t: f64,
+    /// Status before.
+    pub from: PairStatus,
+    /// Status after.
+    pub to: PairStatus,
+}
+
+/// An augmented connection pair (THESIS Algorithm 7) with its status machine.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackedPair {
+    /// The planned pair (a = anchor/knob robot, b = opening/hole robot).
+    pub pair: PlannedPair,
+    /// Current status.
+    pub status: PairStatus,
+    /// Time of the last status change (s).
+    pub since: f64,
+    /// Last measurement, if any.
+    pub last: Option<PairMeasure>,
+}
+
+impl TrackedPair {
+    /// THESIS Algorithm 7 for one pair: status decoupled, type and anchor index from the plan.
+    pub fn new(pair: PlannedPair, t: f64) -> Self {
+        TrackedPair {
+            pair,
+            status: PairStatus::Decoupled,
+            since: t,
+            last: None,
+        }
+    }
+
+    /// Augmented (head) point of robot `a` in its body frame: anchor head or knob tip.
+    pub fn head_a(&self, g: &Geometry) -> [f64; 2] {
+        self.pair.point_a.head(g)
+    }
+
+    /// THESIS Algorithm 8 for one pair, with hysteresis: returns the transitions made
+    /// (several when a state is passed in one tick, e.g. robots that start coupled).
+    pub fn update(
+        &mut self,
+        t: f64,
+        pose_a: &Pose2,
+        pose_b: &Pose2,
+        g: &Geometry,
+        tol: &PairTolerances,
+    ) -> Vec<Transition> {
+        let m = measure(
+            pose_a,
+            self.pair.point_a,
+            pose_b,
+            self.pair.point_b,
+            self.pair.relative_yaw,
+            g,
+        );
+        self.last = Some(m);
+        let kind = self.pair.kind;
+        let h = tol.hysteresis.max(1.0);
+        let mut out = Vec::new();
+        let mut go = |s: &mut Self, to: PairStatus| {
+            out.push(Transition {
+                t,
+                from: s.status,
+                to,
+            });
+            s.status = to;
+            s.since = t;
+        };
+        // At most three steps per tick (decoupled → aligned → inserted, or a fall back).
+        for _ in 0..3 {
+            let before = self.status;
+            match self.status {
+                PairStatus::Decoupled => {
+                    if is_aligned(kind, &m, tol, 1.0) {
+                        go(self, PairStatus::HeadAligned);
+                    }
+                }
+                PairStatus::HeadAligned => {
+                    if is_inserted(kind, &m, tol, 1.0) {
+                        go(self, PairStatus::HeadInserted);
+                    } else if !is_aligned(kind, &m, tol, h) {
+                        go(self, PairStatus::Decoupled);
+                    }
+                }
+                PairStatus::HeadInserted => {
+                    if !is_inserted(kind, &m, tol, h) {
+                        let to = if is_aligned(kind, &m, tol, h) {
+                            PairStatus::HeadAligned
+                        } else {
+                            PairStatus::Decoupled
+                        };
+                        go(self, to);
+                    } else if t - self.since >= tol.confirm_s {
+                        go(self, PairStatus::Connected);
+                    }
+                }
+                PairStatus::Connected => {
+                    if !is_inserted(kind, &m, tol, tol.release.max(h)) {
+                        go(self, PairStatus::Decoupled);
+                    }
+                }
+            }
+            if self.status == before || self.status == PairStatus::Decoupled {
+                break;
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assign::PlannedPair;
+
+    fn anchor_pair() -> PlannedPair {
+        PlannedPair {
+            order: 0,
+            a: 1,
+            point_a: ConnPoint::Back,
+            b: 2,
+            point_b: ConnPoint::Front,
+            kind: PairType::AnchorOpening,
+            slot_a: 1,
+            slot_b: 0,
+            relative_yaw: 0.0,
+            centre_distance: 0.05,
+        }
+    }
+
+    fn knob_pair() -> PlannedPair {
+        PlannedPair {
+            order: 0,
+            a: 1,
+            point_a: ConnPoint::LeftFront,
+            b: 2,
+            point_b: ConnPoint::RightBack,
+            kind: PairType::KnobHole,
+            slot_a: 0,
+            slot_b: 1,
+            relative_yaw: 0.0,
+            centre_distance: 0.056,
+        }
+    }
+
+    /// Robot b at the origin; robot a in front of it with its back face centre `gap` ahead of
+    /// b's opening, `lat` to the side, and a turned by `yaw` about that point (the anchor
+    /// pivot).
+    fn anchor_poses(gap: f64, lat: f64, yaw: f64) -> (Pose2, Pose2) {
+        let back = [0.025 + gap, lat];
+        let a = Pose2::new(
+            back[0] + 0.025 * yaw.cos(),
+            back[1] + 0.025 * yaw.sin(),
+            yaw,
+        );
+        (a, Pose2::new(0.0, 0.0, 0.0))
+    }
+
+    #[test]
+    fn anchor_goes_through_all_states_and_back() {
+        let g = Geometry::default();
+        let tol = PairTolerances::default();
+        let mut p = TrackedPair::new(anchor_pair(), 0.0);
+        // Far away: decoupled.
+        let (a, b) = anchor_poses(0.05, 0.0, 0.0);
+        assert!(p.update(0.0, &a, &b, &g, &tol).is_empty());
+        // Head at the mouth (gap = anchor length → head exactly at the opening): aligned.
+        let (a, b) = anchor_poses(0.007 + 0.002, 0.001, 0.0);
+        let tr = p.update(0.1, &a, &b, &g, &tol);
+        assert_eq!(tr.len(), 1);
+        assert_eq!(p.status, PairStatus::HeadAligned);
+        // Pushed in: inserted, not yet connected.
+        let (a, b) = anchor_poses(0.001, 0.0, 0.05);
+        p.update(0.2, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadInserted);
+        p.update(0.3, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadInserted);
+        // Held for the confirmation time: connected.
+        p.update(0.55, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Connected);
+        // Flexible anchor: 0.4 rad of yaw keeps it connected.
+        let (a, b) = anchor_poses(0.002, 0.0, 0.4);
+        p.update(0.6, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Connected);
+        // Pulled 3 cm apart (decoupling): decoupled.
+        let (a, b) = anchor_poses(0.03, 0.0, 0.0);
+        let tr = p.update(0.7, &a, &b, &g, &tol);
+        assert_eq!(
+            tr,
+            vec![Transition {
+                t: 0.7,
+                from: PairStatus::Connected,
+                to: PairStatus::Decoupled
+            }]
+        );
+    }
+
+    #[test]
+    fn hysteresis_keeps_state_in_the_band() {
+        let g = Geometry::default();
+        let tol = PairTolerances::default();
+        let mut p = TrackedPair::new(anchor_pair(), 0.0);
+        let gap_head_at_mouth = 0.007;
+        // Lateral 3 mm: inside the 3.5 mm tolerance → aligned.
+        let (a, b) = anchor_poses(gap_head_at_mouth + 0.001, 0.003, 0.0);
+        p.update(0.0, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadAligned);
+        // 4.5 mm: outside 3.5 mm but inside 1.5 × 3.5 = 5.25 mm → stays aligned.
+        let (a, b) = anchor_poses(gap_head_at_mouth + 0.001, 0.0045, 0.0);
+        assert!(p.update(0.1, &a, &b, &g, &tol).is_empty());
+        assert_eq!(p.status, PairStatus::HeadAligned);
+        // 6 mm: beyond the band → decoupled.
+        let (a, b) = anchor_poses(gap_head_at_mouth + 0.001, 0.006, 0.0);
+        p.update(0.2, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Decoupled);
+        // Back at 4.5 mm from decoupled: not enough to enter aligned.
+        let (a, b) = anchor_poses(gap_head_at_mouth + 0.001, 0.0045, 0.0);
+        p.update(0.3, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Decoupled);
+    }
+
+    #[test]
+    fn inserted_falls_back_before_confirmation() {
+        let g = Geometry::default();
+        let tol = PairTolerances::default();
+        let mut p = TrackedPair::new(anchor_pair(), 0.0);
+        let (a, b) = anchor_poses(0.0, 0.0, 0.0);
+        let tr = p.update(0.0, &a, &b, &g, &tol);
+        // Robots that start coupled pass aligned and inserted in one tick.
+        assert_eq!(tr.len(), 2);
+        assert_eq!(p.status, PairStatus::HeadInserted);
+        // Backs off to 6 mm (beyond 1.5 × 5 mm? no: 7.5 mm band) → stays inserted.
+        let (a, b) = anchor_poses(0.006, 0.0, 0.0);
+        p.update(0.1, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadInserted);
+        // 8 mm: leaves inserted, but the head is still at the mouth → aligned.
+        let (a, b) = anchor_poses(0.008, 0.0, 0.0);
+        p.update(0.2, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadAligned);
+    }
+
+    #[test]
+    fn knob_needs_sub_millimetre_alignment() {
+        let g = Geometry::default();
+        let tol = PairTolerances::default();
+        let mut p = TrackedPair::new(knob_pair(), 0.0);
+        // b is the hole robot at the origin; a (knob on its left) sits to b's right, shifted
+        // back by half a body: a.left_front meets b.right_back.
+        let place = |along: f64, gap: f64| Pose2::new(-0.025 + along, -0.05 - gap, 0.0);
+        let b = Pose2::new(0.0, 0.0, 0.0);
+        p.update(0.0, &place(0.002, 0.0), &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Decoupled, "2 mm off is not aligned");
+        p.update(0.1, &place(0.0005, 0.003), &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadAligned);
+        p.update(0.2, &place(0.0005, 0.0005), &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadInserted);
+        p.update(0.6, &place(0.0005, 0.0005), &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::Connected);
+    }
+}
