@@ -132,7 +132,7 @@ pub fn open<M: Message>(key: &SessionKey, frame: &[u8]) -> Result<(Header, M), R
         return Err(Rejection::BadTag);
     }
     let msg: M = match postcard::take_from_bytes::<M>(&frame[HEADER_LEN..body]) {
-        Ok((m, rest)) if rest.is_empty() => m,
+        Ok((m, [])) => m,
         _ => return Err(Rejection::MalformedPayload),
     };
     if !msg.valid() {

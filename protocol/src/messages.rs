@@ -220,9 +220,11 @@ impl HostMsg {
             } => [left_rpm, right_rpm]
                 .iter()
                 .all(|v| v.is_finite() && v.abs() <= MAX_COMMAND_RPM),
-            HostMsg::RawDuty { left, right } => {
-                left.abs() <= DUTY_FULL_SCALE && right.abs() <= DUTY_FULL_SCALE
-            }
+            // A range test, not `abs()`: `i16::MIN.abs()` overflows (a panic in debug
+            // builds, and in release it wraps to a negative number that passed the bound).
+            HostMsg::RawDuty { left, right } => [left, right]
+                .iter()
+                .all(|d| (-DUTY_FULL_SCALE..=DUTY_FULL_SCALE).contains(*d)),
             // Parameter sets are range-checked by the robot with a reason reply.
             _ => true,
         }

@@ -227,7 +227,7 @@ fn write_seeds() {
         y: -0.5,
         z: 0.0,
         yaw: 1.0,
-        tracked: id % 2 == 0,
+        tracked: id.is_multiple_of(2),
     };
     let mut out = vec![0u8; MAX_POSE_DATAGRAM];
     for (name, count) in [("empty", 0u16), ("two", 2), ("full", 72)] {

@@ -206,27 +206,55 @@ fn mutate(inp: &mut Input<'_>, frame: &mut Vec<u8>) -> bool {
                 frame[4..10].copy_from_slice(&c.to_le_bytes()[..6]);
             }
             7 => retag = true,
-            8 if len > 0 => {
-                // Swap the direction / stream flag bits.
-                if len > 1 {
-                    frame[1] ^= val & 3;
-                }
-            }
+            // Swap the direction / stream flag bits.
+            8 if len > 1 => frame[1] ^= val & 3,
             _ => {}
         }
     }
     retag
 }
 
+/// A fresh host nonce per call (unique within one execution).
+fn next_host_nonce(seq: &mut u32) -> Nonce {
+    *seq += 1;
+    let mut n = [0xC3; 16];
+    n[..4].copy_from_slice(&seq.to_le_bytes());
+    n
+}
+
 /// Replace the last `TAG_LEN` bytes of `frame` with a valid tag under `key`
 /// (frames shorter than a header plus one payload byte are left alone).
-fn retag(key: &SessionKey, frame: &mut Vec<u8>) {
+fn retag(key: &SessionKey, frame: &mut [u8]) {
     if frame.len() < HEADER_LEN + TAG_LEN + 1 {
         return;
     }
     let body = frame.len() - TAG_LEN;
     let t = key.tag(&frame[..body]);
     frame[body..].copy_from_slice(&t);
+}
+
+/// The numeric bounds an accepted host message must respect, computed independently of
+/// `HostMsg::validate` (in wide integers, so no overflow can hide a violation).
+pub fn check_host_bounds(msg: &HostMsg) {
+    match *msg {
+        HostMsg::WheelSpeed {
+            left_rpm,
+            right_rpm,
+        } => {
+            for v in [left_rpm, right_rpm] {
+                assert!(
+                    v.is_finite() && f64::from(v).abs() <= 1000.0,
+                    "wheel speed {v}"
+                );
+            }
+        }
+        HostMsg::RawDuty { left, right } => {
+            for d in [left, right] {
+                assert!(i32::from(d).abs() <= 1000, "duty {d}");
+            }
+        }
+        _ => {}
+    }
 }
 
 /// Re-seal an accepted message with its header and check it opens to the same message.
@@ -259,23 +287,18 @@ pub fn fuzz_envelope(data: &[u8]) {
     let mut frame = data[..body_len].to_vec();
     frame.extend_from_slice(&key.tag(&frame));
     let header = peek_header(&frame);
-    match open::<HostMsg>(&key, &frame) {
-        Ok((h, m)) => {
-            assert_eq!(Ok(h), header);
-            assert_eq!(h.direction, Direction::HostToRobot);
-            assert_eq!(h.stream == Stream::Hello, m.is_hello());
-            check_reencodes(&key, h, &m);
-        }
-        Err(_) => {}
+    if let Ok((h, m)) = open::<HostMsg>(&key, &frame) {
+        assert_eq!(Ok(h), header);
+        assert_eq!(h.direction, Direction::HostToRobot);
+        check_host_bounds(&m);
+        assert_eq!(h.stream == Stream::Hello, m.is_hello());
+        check_reencodes(&key, h, &m);
     }
-    match open::<RobotMsg>(&key, &frame) {
-        Ok((h, m)) => {
-            assert_eq!(Ok(h), header);
-            assert_eq!(h.direction, Direction::RobotToHost);
-            assert_eq!(h.stream == Stream::Hello, m.is_hello());
-            check_reencodes(&key, h, &m);
-        }
-        Err(_) => {}
+    if let Ok((h, m)) = open::<RobotMsg>(&key, &frame) {
+        assert_eq!(Ok(h), header);
+        assert_eq!(h.direction, Direction::RobotToHost);
+        assert_eq!(h.stream == Stream::Hello, m.is_hello());
+        check_reencodes(&key, h, &m);
     }
 }
 
@@ -309,11 +332,7 @@ pub fn fuzz_robot_session(data: &[u8]) {
     let hello = key.hello_key();
     let mut host = HostSession::new(ROBOT_ID, key.clone());
     let mut robot = RobotSession::new(ROBOT_ID, key.clone(), [0x11; 16]);
-    let mut host_nonce_seq = 0u8;
-    let mut fresh_host_nonce = move || {
-        host_nonce_seq = host_nonce_seq.wrapping_add(1);
-        [host_nonce_seq; 16]
-    };
+    let mut host_nonce_seq = 0u32;
     let mut buf = [0u8; MAX_DATAGRAM];
     let mut wbuf = [0u8; MAX_DATAGRAM];
 
@@ -330,7 +349,11 @@ pub fn fuzz_robot_session(data: &[u8]) {
         )
         .expect("announce seals");
     let HostReceived::Announce { welcome_len, .. } = host
-        .receive(&buf[..n], &mut fresh_host_nonce, &mut wbuf)
+        .receive(
+            &buf[..n],
+            || next_host_nonce(&mut host_nonce_seq),
+            &mut wbuf,
+        )
         .expect("host accepts announce")
     else {
         panic!("announce not recognised");
@@ -341,8 +364,12 @@ pub fn fuzz_robot_session(data: &[u8]) {
     let n = robot
         .send(&RobotMsg::ParamsReply { rejected: None }, &mut buf)
         .expect("seal");
-    host.receive(&buf[..n], &mut fresh_host_nonce, &mut wbuf)
-        .expect("host proves session");
+    host.receive(
+        &buf[..n],
+        || next_host_nonce(&mut host_nonce_seq),
+        &mut wbuf,
+    )
+    .expect("host proves session");
 
     let samples = session_samples_host();
     // Genuine host frames of the current robot session and of earlier ones.
@@ -418,7 +445,7 @@ pub fn fuzz_robot_session(data: &[u8]) {
                     .expect("announce seals");
                 let mut issued = None;
                 let mut nonce_fn = || {
-                    let n = fresh_host_nonce();
+                    let n = next_host_nonce(&mut host_nonce_seq);
                     issued = Some(n);
                     n
                 };
@@ -441,8 +468,12 @@ pub fn fuzz_robot_session(data: &[u8]) {
                     .send(&RobotMsg::ParamsReply { rejected: None }, &mut buf)
                     .expect("seal");
                 // The robot's first frame proves the new session to the host.
-                host.receive(&buf[..n], &mut fresh_host_nonce, &mut wbuf)
-                    .expect("host takes over the robot's new session");
+                host.receive(
+                    &buf[..n],
+                    || next_host_nonce(&mut host_nonce_seq),
+                    &mut wbuf,
+                )
+                .expect("host takes over the robot's new session");
                 assert!(host.is_established());
                 assert!(!host.has_pending());
                 continue;
@@ -456,6 +487,7 @@ pub fn fuzz_robot_session(data: &[u8]) {
                 assert_eq!(h.robot_id, ROBOT_ID);
                 assert_eq!(h.direction, Direction::HostToRobot);
                 assert!(msg.validate(), "invalid message accepted: {msg:?}");
+                check_host_bounds(&msg);
                 match msg {
                     HostMsg::Welcome { robot_nonce, .. } => {
                         assert!(!was_established, "second welcome accepted in one session");
