@@ -238,6 +238,23 @@ fn datagram_size_budget() {
             assert!(*hi <= COMMAND_BUDGET, "{name}: {hi} B > {COMMAND_BUDGET}");
         }
     }
+    // A typical telemetry frame: one hour up, wheels near full speed, 10^6 encoder counts,
+    // a full battery, ordinary RSSI, the 108,000th command (30 Hz for an hour).
+    let typical = RobotMsg::Telemetry(Telemetry {
+        uptime_ms: 3_600_000,
+        measured_rpm: [441.5, -437.25],
+        target_rpm: [450.0, -450.0],
+        duty: [612, -598],
+        encoder_counts: [1_000_000, -1_000_000],
+        battery_mv: 4100,
+        rssi_dbm: -61,
+        flags: 0,
+        last_command_counter: 108_000,
+    });
+    let typical = frame_len(&typical);
+    println!("typical telemetry: {typical} bytes");
+    assert!(typical <= COMMAND_BUDGET, "typical telemetry {typical} B");
+
     // Pin the measured numbers so a message change that grows a frame is noticed here
     // and in the README table.
     assert_eq!(wheel, 35);
