@@ -30,6 +30,10 @@ pub struct Firmware {
     /// Feed-forward start-up offset: the duty (per-mille) at which a wheel starts to turn,
     /// i.e. the dead-band M_min of THESIS 3.4 expressed as duty.
     pub ff_deadband_duty: f32,
+    /// Time constant of the reference model the PI tracks (ms): the feed-forward moves the
+    /// wheel along this first-order response, the PI corrects only deviations from it
+    /// (two-degree-of-freedom control; avoids integral overshoot on large steps).
+    pub reference_tau_ms: f32,
     /// Largest duty change per second (per-mille/s): the output slew limit.
     pub duty_slew_per_s: f32,
     /// No encoder edge for this long means the wheel stands still (ms).
@@ -46,13 +50,15 @@ impl Default for Firmware {
         Firmware {
             loop_hz: 50.0,
             schedule_rpm: [123.0, 265.0, 495.0],
-            // Tuned in `firmware/core` (tests `pi_step_*`) against the first-order motor model
-            // documented in `puzzlebot_firmware_core::model`: no-load 520 RPM at full duty
-            // and 3.7 V, time constant 30 ms, dead-band 80 per-mille.
+            // Tuned with `cargo run --release -p puzzlebot-firmware-core --example tune`
+            // against the first-order motor model of `puzzlebot_firmware_core::model`
+            // (no-load 520 RPM at full duty and 3.7 V, time constant 30 ms, dead-band 80
+            // per-mille), worst case over motor gains ±10 % and steps of 60–123 / 200–265 /
+            // 400–450 RPM: ±2 % settling 0.23 / 0.21 / 0.20 s, overshoot ≤ 3.5 %.
             pi: [
-                PiGains { kp: 1.0, ki: 10.0 },
-                PiGains { kp: 1.0, ki: 10.0 },
-                PiGains { kp: 1.0, ki: 10.0 },
+                PiGains { kp: 0.85, ki: 60.0 },
+                PiGains { kp: 1.10, ki: 86.0 },
+                PiGains { kp: 0.95, ki: 98.0 },
             ],
             max_rpm: 450.0,
             failsafe_timeout_ms: 200,
@@ -62,6 +68,7 @@ impl Default for Firmware {
             // 1000 − 80 per-mille span 520 RPM (model above): 920 / 520 ≈ 1.77.
             ff_duty_per_rpm: 1.77,
             ff_deadband_duty: 80.0,
+            reference_tau_ms: 50.0,
             duty_slew_per_s: 20_000.0,
             standstill_after_ms: 150,
             announce_interval_ms: 250,

@@ -32,6 +32,8 @@ pub struct SpeedEstimator {
     max_span_us: u64,
     standstill_us: u64,
     last_tick: Option<(u64, i32)>,
+    rest_since_us: u64,
+    reliable: bool,
     rpm: f32,
 }
 
@@ -44,6 +46,8 @@ impl SpeedEstimator {
             max_span_us: max_span_us.max(1),
             standstill_us: standstill_us.max(1),
             last_tick: None,
+            rest_since_us: 0,
+            reliable: false,
             rpm: 0.0,
         }
     }
@@ -51,6 +55,13 @@ impl SpeedEstimator {
     /// The latest estimate (RPM, signed).
     pub fn rpm(&self) -> f32 {
         self.rpm
+    }
+
+    /// False while fewer than two edges have been seen since the wheel was last at rest:
+    /// the estimate is then a placeholder (0) that lags a starting wheel, and the speed
+    /// loop runs on feed-forward only ([`crate::pi::WheelController::update`]).
+    pub fn reliable(&self) -> bool {
+        self.reliable
     }
 
     /// RPM of `edges` edges in `us` microseconds.
@@ -62,6 +73,15 @@ impl SpeedEstimator {
     pub fn update(&mut self, now_us: u64, snap: &EncoderSnapshot) -> f32 {
         let counted = self.counting_estimate(now_us, snap.position);
         self.last_tick = Some((now_us, snap.position));
+        let edges = snap.edges();
+        let at_rest = edges
+            .last()
+            .is_none_or(|e| now_us.saturating_sub(e.t_us) >= self.standstill_us);
+        if at_rest {
+            self.rest_since_us = now_us;
+        }
+        let rest = self.rest_since_us;
+        self.reliable = edges.iter().filter(|e| e.t_us > rest).count() >= 2;
         self.rpm = match self.timed_estimate(now_us, snap.edges()) {
             Some(rpm) => rpm,
             None => counted.unwrap_or(0.0),
@@ -258,6 +278,30 @@ mod tests {
             prev = r;
         }
         assert_eq!(prev, 0.0);
+    }
+
+    #[test]
+    fn unreliable_until_two_edges_after_rest() {
+        let mut enc = Encoder::new();
+        enc.init_levels(false, false);
+        let mut est = SpeedEstimator::new(EPR, PERIOD, 150_000);
+        est.update(0, &enc.snapshot());
+        assert!(!est.reliable());
+        let (a, b) = levels_of(1);
+        enc.on_edge(a, b, 30_000);
+        est.update(40_000, &enc.snapshot());
+        assert!(!est.reliable());
+        let (a, b) = levels_of(2);
+        enc.on_edge(a, b, 50_000);
+        est.update(60_000, &enc.snapshot());
+        assert!(est.reliable());
+        // Long pause: at rest again, then one edge is not enough.
+        est.update(400_000, &enc.snapshot());
+        assert!(!est.reliable());
+        let (a, b) = levels_of(3);
+        enc.on_edge(a, b, 410_000);
+        est.update(420_000, &enc.snapshot());
+        assert!(!est.reliable());
     }
 
     #[test]

@@ -126,6 +126,17 @@ impl ClosedLoop {
 
     /// Step from rest to `target_rpm`, simulated for `duration_s`.
     pub fn step_response(&self, target_rpm: f32, duration_s: f32) -> StepResult {
+        self.step_response_traced(target_rpm, duration_s, &mut |_, _, _, _, _| {})
+    }
+
+    /// As [`ClosedLoop::step_response`], calling `trace(t_s, true_rpm, estimate, reference,
+    /// duty)` at every control tick.
+    pub fn step_response_traced(
+        &self,
+        target_rpm: f32,
+        duration_s: f32,
+        trace: &mut dyn FnMut(f32, f32, f32, f32, f32),
+    ) -> StepResult {
         let period_us = (1.0e6 / self.params.loop_hz.max(1.0)) as u64;
         let sub_us = 100u64;
         let epr = f64::from(self.params.encoder_edges_per_rev);
@@ -147,9 +158,10 @@ impl ClosedLoop {
         let mut t = 0u64;
         ctl.set_target(target_rpm);
         while t < end_us {
-            if t % period_us == 0 {
+            if t.is_multiple_of(period_us) {
                 let measured = est.update(t, &enc.snapshot());
-                duty = ctl.update(measured, period_us as f32 * 1e-6);
+                duty = ctl.update(est.reliable().then_some(measured), period_us as f32 * 1e-6);
+                trace(t as f32 * 1e-6, rpm, measured, ctl.reference(), duty);
             }
             let ss = self.motor.steady_rpm(duty);
             let moving = rpm != 0.0 || duty.abs() > self.motor.deadband_duty;

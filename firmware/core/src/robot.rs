@@ -77,7 +77,8 @@ pub enum ConfigError {
     MaxRpm,
     /// `schedule_rpm` must be finite and ascending.
     Schedule,
-    /// `ff_duty_per_rpm`, `ff_deadband_duty` must be finite, ≥ 0, dead-band < 1000.
+    /// `ff_duty_per_rpm`, `ff_deadband_duty`, `reference_tau_ms` must be finite, ≥ 0,
+    /// dead-band < 1000.
     FeedForward,
     /// `duty_slew_per_s` must be finite and positive.
     Slew,
@@ -95,7 +96,7 @@ impl core::fmt::Display for ConfigError {
                 f.write_str("firmware.schedule_rpm must be finite and ascending")
             }
             ConfigError::FeedForward => f.write_str(
-                "firmware.ff_duty_per_rpm / ff_deadband_duty must be finite, >= 0, dead-band < 1000",
+                "firmware.ff_duty_per_rpm / ff_deadband_duty / reference_tau_ms must be finite, >= 0, dead-band < 1000",
             ),
             ConfigError::Slew => f.write_str("firmware.duty_slew_per_s must be finite and > 0"),
             ConfigError::Params(r) => write!(f, "firmware pi/failsafe/telemetry: {r:?}"),
@@ -119,6 +120,8 @@ pub fn check_config(p: &Firmware) -> Result<(), ConfigError> {
         return Err(ConfigError::Schedule);
     }
     let ff_ok = p.ff_duty_per_rpm.is_finite()
+        && p.reference_tau_ms.is_finite()
+        && p.reference_tau_ms >= 0.0
         && p.ff_duty_per_rpm >= 0.0
         && p.ff_deadband_duty.is_finite()
         && (0.0..1000.0).contains(&p.ff_deadband_duty);
@@ -521,7 +524,8 @@ impl<N: NonceSource> Robot<N> {
             DriveMode::Speed => {
                 let mut c = [MotorCommand::Brake; 2];
                 for (i, slot) in c.iter_mut().enumerate() {
-                    let d = self.wheels[i].update(self.measured[i], dt_s);
+                    let m = self.estimators[i].reliable().then_some(self.measured[i]);
+                    let d = self.wheels[i].update(m, dt_s);
                     *slot = MotorCommand::Duty(round_duty(d));
                 }
                 c

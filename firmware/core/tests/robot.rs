@@ -455,11 +455,15 @@ fn closed_loop_reaches_speed_on_measured_encoders() {
 
 #[test]
 fn bad_parameters_are_refused_at_construction() {
-    let mut p = Firmware::default();
-    p.loop_hz = 0.0;
+    let p = Firmware {
+        loop_hz: 0.0,
+        ..Firmware::default()
+    };
     assert!(Robot::new(1, RobotKind::Pilot, None, p, VERSION, counter_nonces(0)).is_err());
-    let mut p = Firmware::default();
-    p.schedule_rpm = [300.0, 200.0, 100.0];
+    let p = Firmware {
+        schedule_rpm: [300.0, 200.0, 100.0],
+        ..Firmware::default()
+    };
     assert!(Robot::new(1, RobotKind::Pilot, None, p, VERSION, counter_nonces(0)).is_err());
     let mut p = Firmware::default();
     p.pi[1].kp = f32::NAN;
