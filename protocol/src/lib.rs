@@ -31,7 +31,7 @@ pub use envelope::{open, peek_header, seal, Direction, Header, Stream};
 pub use messages::*;
 pub use reject::{EncodeError, Rejection};
 pub use replay::ReplayWindow;
-pub use session::{HostSession, RobotSession};
+pub use session::{HostReceived, HostSession, RobotSession, PENDING_OFFERS};
 
 /// Protocol version carried in every datagram's first byte.
 pub const PROTOCOL_VERSION: u8 = 1;

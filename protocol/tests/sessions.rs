@@ -512,3 +512,21 @@ fn keys_are_never_printed() {
     }
     assert!(dbg.contains("<redacted>"));
 }
+
+#[test]
+fn sealing_into_a_small_buffer_is_an_error_not_a_panic() {
+    let (mut host, mut robot) = pair();
+    for len in 0..35 {
+        let mut out = vec![0u8; len];
+        let r = host.send(
+            &HostMsg::WheelSpeed {
+                left_rpm: 1.0,
+                right_rpm: 1.0,
+            },
+            &mut out,
+        );
+        assert_eq!(r, Err(EncodeError::TooLarge), "buffer of {len}");
+    }
+    // The failed attempts consumed counters but the session still works.
+    assert_linked(&mut host, &mut robot);
+}
