@@ -9,17 +9,24 @@
 //! - [`shape`]: line, mesh, custom shapes from TOML/JSON (poses or an assembly graph).
 //! - [`info`]: diagonal angle α, best heading, projected length (5.2.4), [`info::shape_info`].
 //! - [`assign`]: Algorithms 1–2 (MST, closest points, convex-first, Hungarian).
+//! - [`coordinator`]: per-tick tasks, segment leaders, events, re-planning.
+//! - [`behaviour`]: wiggle, rendezvous, point controller, trajectories.
 //! - [`pair`]: Algorithm 7 augmentation and the Algorithm 8 status machine with hysteresis.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod assign;
+pub mod behaviour;
+pub mod coordinator;
 pub mod geom;
 pub mod info;
 pub mod pair;
 pub mod shape;
 
 pub use assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
+pub use coordinator::{
+    Coordinator, CoordinatorConfig, Event, EventKind, MaintainPair, Mode, RobotTask, Role, Tick,
+};
 pub use geom::{ConnPoint, PairType, Pose2};
 pub use info::{shape_info, ShapeInfo};
 pub use pair::{PairStatus, PairTolerances, TrackedPair, Transition};

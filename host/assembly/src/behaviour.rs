@@ -1,0 +1,201 @@
+//! Behaviour primitives that need no optimisation: the decoupling wiggle (THESIS (4.2), (5.7)),
+//! rendezvous / anti-rendezvous (THESIS (2.3), (2.4)), the Jacobian pseudo-inverse point
+//! controller (THESIS (3.2)) and trajectories for the tracking behaviour (THESIS (5.26)).
+
+use crate::geom::{wrap_angle, Pose2};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Wiggle parameters (THESIS 4.3.2 / 5.4.2 decoupling controller).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Wiggle {
+    /// Forward bias v_bias (m/s); the anchor robot pulls away while wiggling.
+    pub v_bias: f64,
+    /// Turn rate amplitude ω_max (rad/s).
+    pub w_max: f64,
+    /// Period 2π/B (s).
+    pub period_s: f64,
+    /// Square wave sgn(sin(Bt)) as in THESIS (5.7); false: sinusoid as in (4.2).
+    pub square: bool,
+}
+
+impl Default for Wiggle {
+    fn default() -> Self {
+        // THESIS gives the form, not the numbers; these release the anchor within ~2 s in
+        // THESIS Fig 5.4B's description ("within the first second ... by the end of two").
+        Wiggle {
+            v_bias: 0.01,
+            w_max: 1.5,
+            period_s: 0.5,
+            square: true,
+        }
+    }
+}
+
+impl Wiggle {
+    /// (v, ω) at time `t` since the wiggle started: THESIS (5.7) v = v_bias,
+    /// ω = ω_max sgn(sin(Bt)) (or ω_max sin(Bt), (4.2)).
+    pub fn command(&self, t: f64) -> (f64, f64) {
+        let b = 2.0 * PI / self.period_s.max(1e-6);
+        let s = (b * t).sin();
+        let w = if self.square {
+            if s > 0.0 {
+                self.w_max
+            } else if s < 0.0 {
+                -self.w_max
+            } else {
+                0.0
+            }
+        } else {
+            self.w_max * s
+        };
+        (self.v_bias, w)
+    }
+
+    /// The profile sampled every `dt` seconds for `duration` seconds: (t, v, ω) rows.
+    pub fn profile(&self, duration: f64, dt: f64) -> Vec<(f64, f64, f64)> {
+        if !dt.is_finite() || dt <= 0.0 || !duration.is_finite() || duration < 0.0 {
+            return Vec::new();
+        }
+        let n = (duration / dt).floor() as usize;
+        (0..=n)
+            .map(|k| {
+                let t = k as f64 * dt;
+                let (v, w) = self.command(t);
+                (t, v, w)
+            })
+            .collect()
+    }
+}
+
+/// Rendezvous velocities (THESIS (2.3)): u_i = gain · (1/N) Σ_{j≠i} (x_j − x_i), in the plane.
+/// With `anti`, the anti-rendezvous of THESIS (2.4) (the negative).
+pub fn rendezvous(positions: &[[f64; 2]], gain: f64, anti: bool) -> Vec<[f64; 2]> {
+    let n = positions.len();
+    if n == 0 {
+        return Vec::new();
+    }
+    let sign = if anti { -1.0 } else { 1.0 };
+    let inv = 1.0 / n as f64;
+    positions
+        .iter()
+        .map(|p| {
+            let (sx, sy) = positions.iter().fold((0.0, 0.0), |(sx, sy), q| {
+                (sx + q[0] - p[0], sy + q[1] - p[1])
+            });
+            [sign * gain * inv * sx, sign * gain * inv * sy]
+        })
+        .collect()
+}
+
+/// THESIS (3.2): u = J⁺ [Δx, Δy, Δθ] with Δθ = atan(Δy/Δx) − θ wrapped into (−π/2, π/2]
+/// (so the robot may back up instead of turning round). Returns (v, ω).
+pub fn point_command(pose: &Pose2, dx: f64, dy: f64, heading_gain: f64) -> (f64, f64) {
+    let (s, c) = pose.yaw.sin_cos();
+    let v = c * dx + s * dy;
+    if dx.hypot(dy) < 1e-12 {
+        return (0.0, 0.0);
+    }
+    let mut dth = wrap_angle(dy.atan2(dx) - pose.yaw);
+    if dth > FRAC_PI_2 {
+        dth -= PI;
+    } else if dth <= -FRAC_PI_2 {
+        dth += PI;
+    }
+    (v, heading_gain * dth)
+}
+
+/// A reference trajectory: poses at given times, linearly interpolated (THESIS (5.26) x^ref).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Trajectory {
+    /// (t, pose) waypoints, t strictly increasing (s, relative to the start of the behaviour).
+    pub waypoints: Vec<(f64, Pose2)>,
+}
+
+impl Trajectory {
+    /// Reference pose at time `t` (clamped to the ends).
+    pub fn sample(&self, t: f64) -> Option<Pose2> {
+        let w = &self.waypoints;
+        let first = w.first()?;
+        if t <= first.0 {
+            return Some(first.1);
+        }
+        for pair in w.windows(2) {
+            let (t0, p0) = pair[0];
+            let (t1, p1) = pair[1];
+            if t <= t1 {
+                let s = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+                return Some(Pose2::new(
+                    p0.x + s * (p1.x - p0.x),
+                    p0.y + s * (p1.y - p0.y),
+                    wrap_angle(p0.yaw + s * wrap_angle(p1.yaw - p0.yaw)),
+                ));
+            }
+        }
+        w.last().map(|l| l.1)
+    }
+
+    /// Time of the last waypoint (s).
+    pub fn end_time(&self) -> f64 {
+        self.waypoints.last().map_or(0.0, |w| w.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wiggle_is_a_square_wave_with_bias() {
+        let w = Wiggle {
+            v_bias: 0.02,
+            w_max: 2.0,
+            period_s: 1.0,
+            square: true,
+        };
+        assert_eq!(w.command(0.25), (0.02, 2.0));
+        assert_eq!(w.command(0.75), (0.02, -2.0));
+        let p = w.profile(1.0, 0.1);
+        assert_eq!(p.len(), 11);
+        let mean_w: f64 = p[1..10].iter().map(|r| r.2).sum::<f64>() / 9.0;
+        assert!(mean_w.abs() < 0.5, "wiggle has no net turn: {mean_w}");
+        let sine = Wiggle { square: false, ..w };
+        assert!((sine.command(0.25).1 - 2.0).abs() < 1e-9);
+        assert!(sine.command(0.125).1 < 2.0);
+    }
+
+    #[test]
+    fn rendezvous_pulls_together_and_anti_pushes_apart() {
+        let p = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+        let u = rendezvous(&p, 1.0, false);
+        assert!(u[0][0] > 0.0 && u[0][1] > 0.0);
+        assert!(u[1][0] < 0.0);
+        let sum: f64 = u.iter().map(|v| v[0] + v[1]).sum();
+        assert!(sum.abs() < 1e-12, "consensus keeps the centroid");
+        let a = rendezvous(&p, 1.0, true);
+        assert!(a[0][0] < 0.0 && a[1][0] > 0.0);
+    }
+
+    #[test]
+    fn point_command_backs_up_rather_than_turning_round() {
+        let pose = Pose2::new(0.0, 0.0, 0.0);
+        let (v, w) = point_command(&pose, -0.1, 0.0, 1.0);
+        assert!(v < 0.0 && w.abs() < 1e-12);
+        let (v, w) = point_command(&pose, 0.1, 0.1, 1.0);
+        assert!(v > 0.0 && (w - PI / 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn trajectory_interpolates_and_clamps() {
+        let tr = Trajectory {
+            waypoints: vec![
+                (0.0, Pose2::new(0.0, 0.0, 0.0)),
+                (2.0, Pose2::new(1.0, 0.0, 0.0)),
+            ],
+        };
+        assert!((tr.sample(1.0).unwrap().x - 0.5).abs() < 1e-12);
+        assert!((tr.sample(5.0).unwrap().x - 1.0).abs() < 1e-12);
+        assert_eq!(tr.end_time(), 2.0);
+    }
+}

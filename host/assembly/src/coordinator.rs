@@ -1,0 +1,1214 @@
+//! The per-tick coordinator: given measured poses it updates every pair's status machine
+//! (THESIS Algorithm 8), picks non-conflicting active pairs (Algorithm 3 lines 6–11, Algorithm 6
+//! line 4), elects segment leaders (THESIS 5.5.9) and returns one task per robot for the
+//! distributed MPC. It records every status change with its time, and re-plans without a robot
+//! that is lost (THESIS Algorithm 2 on the remaining fleet).
+
+use crate::assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
+use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
+use crate::geom::{ConnPoint, PairType, Pose2};
+use crate::pair::{PairStatus, PairTolerances, TrackedPair};
+use crate::shape::ShapeSpec;
+use puzzlebot_params::geometry::Geometry;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::messages::RobotId;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// What one robot should do this tick.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "role")]
+pub enum Role {
+    /// Stand still (no task; keep existing couplings).
+    Hold,
+    /// Not driven: a pilot that is not yet part of an assembly with a non-pilot (THESIS 3.5.2),
+    /// or a robot whose pair must wait (convex-first).
+    Wait,
+    /// Segment leader aligning a connection pair (THESIS (4.5), (5.19)): bring `own_point`
+    /// (body frame) onto the partner's `partner_point` (its body frame), with own yaw minus
+    /// partner yaw → `relative_yaw`.
+    Align {
+        /// Index of the pair in [`Coordinator::pairs`].
+        pair: usize,
+        /// The other robot.
+        partner: RobotId,
+        /// Point on this robot (m, body frame): the augmented head while decoupled.
+        own_point: [f64; 2],
+        /// Point on the partner (m, its body frame).
+        partner_point: [f64; 2],
+        /// Target own yaw − partner yaw (rad).
+        relative_yaw: f64,
+        /// Anchor–opening or knob–hole.
+        kind: PairType,
+        /// Current status of the pair (the phase).
+        phase: PairStatus,
+    },
+    /// Follow the segment leader (THESIS (5.25)): copy its goal with a smaller weight.
+    Follow {
+        /// Leader of this robot's segment.
+        leader: RobotId,
+    },
+    /// Fit a velocity command (THESIS (4.7)).
+    Velocity {
+        /// Linear velocity (m/s).
+        v: f64,
+        /// Angular velocity (rad/s).
+        w: f64,
+    },
+    /// Go to a goal pose (THESIS (4.6)); `yaw` matters only when `use_yaw`.
+    GoTo {
+        /// Goal.
+        goal: Pose2,
+        /// Whether the heading is part of the goal.
+        use_yaw: bool,
+    },
+    /// Track a reference trajectory (THESIS (5.26)): reference poses at t, t + dt, ….
+    Track {
+        /// Reference samples over the MPC horizon.
+        reference: Vec<Pose2>,
+    },
+}
+
+/// One robot's task.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotTask {
+    /// Robot.
+    pub robot: RobotId,
+    /// What to do.
+    pub role: Role,
+    /// Only straight motion allowed (pilot, THESIS 5.4.1): the MPC must keep ω = 0.
+    pub straight_only: bool,
+    /// Leader of this robot's segment (itself when leading; `None` when alone and idle).
+    pub leader: Option<RobotId>,
+    /// Segment (connected assembly) index this tick.
+    pub segment: usize,
+}
+
+/// A coupled pair the MPC must keep coupled (C_conn: THESIS (4.11), (5.23), (5.24)).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MaintainPair {
+    /// Robot with the anchor / knob.
+    pub a: RobotId,
+    /// Its connection point.
+    pub point_a: ConnPoint,
+    /// Its augmented point (anchor head / knob tip), body frame (m).
+    pub head_a: [f64; 2],
+    /// Robot with the opening / hole.
+    pub b: RobotId,
+    /// Its connection point.
+    pub point_b: ConnPoint,
+    /// Pair type.
+    pub kind: PairType,
+}
+
+/// Something that happened, with its time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "event")]
+pub enum EventKind {
+    /// A plan was made (Algorithm 2).
+    Planned {
+        /// Robots in the plan.
+        robots: Vec<RobotId>,
+        /// Number of pairs.
+        pairs: usize,
+    },
+    /// A pair changed status.
+    PairStatus {
+        /// Pair index.
+        pair: usize,
+        /// Anchor / knob robot.
+        a: RobotId,
+        /// Opening / hole robot.
+        b: RobotId,
+        /// Pair type.
+        kind: PairType,
+        /// Before.
+        from: PairStatus,
+        /// After.
+        to: PairStatus,
+    },
+    /// A robot was declared lost.
+    RobotLost {
+        /// The robot.
+        robot: RobotId,
+    },
+    /// The plan was recomputed without lost robots.
+    Replanned {
+        /// Robots in the new plan.
+        robots: Vec<RobotId>,
+    },
+    /// Re-planning failed; the coordinator holds everyone.
+    ReplanFailed {
+        /// Why.
+        reason: String,
+    },
+    /// Every pair of the plan is connected.
+    FormationComplete,
+    /// A behaviour started.
+    BehaviourStarted {
+        /// Its name.
+        name: String,
+    },
+    /// A pair was released after decoupling and is no longer tracked.
+    PairReleased {
+        /// Anchor / knob robot.
+        a: RobotId,
+        /// Opening / hole robot.
+        b: RobotId,
+    },
+}
+
+/// A timed event.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// Time (s).
+    pub t: f64,
+    /// What happened.
+    #[serde(flatten)]
+    pub kind: EventKind,
+}
+
+/// Output of one tick.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Tick {
+    /// Time (s).
+    pub t: f64,
+    /// One task per known, not lost robot, ordered by id.
+    pub tasks: Vec<RobotTask>,
+    /// Pairs to maintain (connected, not being released).
+    pub maintain: Vec<MaintainPair>,
+    /// Indices of active pairs (being aligned).
+    pub active: Vec<usize>,
+    /// All pairs of the current plan are connected.
+    pub complete: bool,
+    /// Events of this tick.
+    pub events: Vec<Event>,
+}
+
+/// The behaviour the coordinator is executing.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Stand still, keep couplings.
+    Hold,
+    /// Form the planned shape (pairs from [`Coordinator::form`]).
+    Form,
+    /// Assemblies follow a velocity (leader fits it, others follow).
+    Velocity {
+        /// m/s.
+        v: f64,
+        /// rad/s.
+        w: f64,
+    },
+    /// Each assembly moves so that the plan's shape centre reaches `goal` (leaders go to their
+    /// slot placed at the goal; others follow).
+    GoTo {
+        /// Goal of the shape centre and heading.
+        goal: Pose2,
+    },
+    /// Leaders track a trajectory of the shape centre (started at `start`).
+    Track {
+        /// The trajectory (times relative to `start`).
+        trajectory: Trajectory,
+        /// Start time (s).
+        start: f64,
+    },
+    /// Rendezvous (THESIS (2.3)) or anti-rendezvous ((2.4)) of the given robots.
+    Rendezvous {
+        /// Robots taking part (others hold).
+        robots: Vec<RobotId>,
+        /// Gain on the consensus velocity (1/s).
+        gain: f64,
+        /// Anti-rendezvous.
+        anti: bool,
+    },
+    /// The anchor robots of the given pairs wiggle (THESIS (5.7)) until decoupled.
+    Decouple {
+        /// Pairs (by index) to release.
+        pairs: Vec<usize>,
+        /// Wiggle profile.
+        wiggle: Wiggle,
+        /// Start time (s).
+        start: f64,
+    },
+    /// Every listed robot goes to its own goal (THESIS (4.6)).
+    Disperse {
+        /// Goals.
+        goals: BTreeMap<RobotId, Pose2>,
+    },
+}
+
+/// Coordinator settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CoordinatorConfig {
+    /// Status machine tolerances.
+    pub tolerances: PairTolerances,
+    /// A planned robot unseen for this long is lost and the plan is recomputed (s).
+    pub lost_after_s: f64,
+    /// A pair starts only when every pair of a shorter centre distance is connected
+    /// (strict convex-first, THESIS 5.2.2: rows before the side joins).
+    pub strict_convex_first: bool,
+    /// MPC horizon samples for trajectory references.
+    pub horizon_steps: usize,
+    /// MPC step (s).
+    pub dt: f64,
+    /// Heading gain of the THESIS (3.2) point controller used by rendezvous.
+    pub heading_gain: f64,
+}
+
+impl Default for CoordinatorConfig {
+    fn default() -> Self {
+        CoordinatorConfig {
+            tolerances: PairTolerances::default(),
+            lost_after_s: 1.0,
+            strict_convex_first: true,
+            horizon_steps: 10,
+            dt: 0.1,
+            heading_gain: 1.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Known {
+    kind: RobotKind,
+    pose: Pose2,
+    last_seen: f64,
+}
+
+/// The planner/coordinator: plain data in (poses), plain data out (tasks, events).
+#[derive(Debug, Clone)]
+pub struct Coordinator {
+    geometry: Geometry,
+    cfg: CoordinatorConfig,
+    plan: Option<Plan>,
+    heading: Option<f64>,
+    pairs: Vec<TrackedPair>,
+    released: BTreeSet<usize>,
+    robots: BTreeMap<RobotId, Known>,
+    lost: BTreeSet<RobotId>,
+    mode: Mode,
+    events: Vec<Event>,
+    pending: Vec<Event>,
+    complete_reported: bool,
+}
+
+impl Coordinator {
+    /// A coordinator for robots with body geometry `geometry`.
+    pub fn new(geometry: Geometry, cfg: CoordinatorConfig) -> Self {
+        Coordinator {
+            geometry,
+            cfg,
+            plan: None,
+            heading: None,
+            pairs: Vec::new(),
+            released: BTreeSet::new(),
+            robots: BTreeMap::new(),
+            lost: BTreeSet::new(),
+            mode: Mode::Hold,
+            events: Vec::new(),
+            pending: Vec::new(),
+            complete_reported: false,
+        }
+    }
+
+    /// A coordinator with tolerances from the fleet parameters and the MPC rate.
+    pub fn from_params(p: &FleetParams) -> Self {
+        let g = p.non_pilot.geometry;
+        let cfg = CoordinatorConfig {
+            tolerances: PairTolerances::from_params(&g, &p.non_pilot.coupling),
+            dt: 1.0 / f64::from(p.rates.mpc_hz).max(1e-3),
+            ..CoordinatorConfig::default()
+        };
+        Coordinator::new(g, cfg)
+    }
+
+    /// Current plan.
+    pub fn plan(&self) -> Option<&Plan> {
+        self.plan.as_ref()
+    }
+
+    /// Tracked pairs (index = pair id in tasks and events).
+    pub fn pairs(&self) -> &[TrackedPair] {
+        &self.pairs
+    }
+
+    /// All events so far.
+    pub fn events(&self) -> &[Event] {
+        &self.events
+    }
+
+    /// Robots declared lost.
+    pub fn lost(&self) -> &BTreeSet<RobotId> {
+        &self.lost
+    }
+
+    /// Current behaviour.
+    pub fn mode(&self) -> &Mode {
+        &self.mode
+    }
+
+    /// True when a plan exists and all its pairs are connected.
+    pub fn is_complete(&self) -> bool {
+        self.plan.is_some()
+            && self
+                .pairs
+                .iter()
+                .enumerate()
+                .all(|(i, p)| self.released.contains(&i) || p.status == PairStatus::Connected)
+    }
+
+    fn push(&mut self, t: f64, kind: EventKind) {
+        let e = Event { t, kind };
+        self.events.push(e.clone());
+        self.pending.push(e);
+    }
+
+    fn observe(&mut self, t: f64, robots: &[RobotState]) {
+        for r in robots {
+            if r.pose.is_finite() && !self.lost.contains(&r.id) {
+                self.robots.insert(
+                    r.id,
+                    Known {
+                        kind: r.kind,
+                        pose: r.pose,
+                        last_seen: t,
+                    },
+                );
+            }
+        }
+    }
+
+    fn states(&self) -> Vec<RobotState> {
+        self.robots
+            .iter()
+            .filter(|(id, _)| !self.lost.contains(id))
+            .map(|(&id, k)| RobotState {
+                id,
+                kind: k.kind,
+                pose: k.pose,
+            })
+            .collect()
+    }
+
+    /// Start forming `spec` with every known robot plus `robots` (THESIS Algorithms 2 and 7).
+    /// Pairs that already exist with the same robots and points keep their status.
+    pub fn form(
+        &mut self,
+        t: f64,
+        spec: ShapeSpec,
+        robots: &[RobotState],
+        heading: Option<f64>,
+    ) -> Result<&Plan, PlanError> {
+        self.observe(t, robots);
+        let states = self.states();
+        let plan = assign_connection_pairs(&spec, &states, heading, &self.geometry)?;
+        self.heading = heading;
+        self.install(t, plan, false);
+        self.mode = Mode::Form;
+        self.push(
+            t,
+            EventKind::BehaviourStarted {
+                name: "form".into(),
+            },
+        );
+        Ok(self.plan.as_ref().expect("just installed"))
+    }
+
+    fn install(&mut self, t: f64, plan: Plan, replanned: bool) {
+        let old: BTreeMap<_, _> = self
+            .pairs
+            .iter()
+            .map(|p| (p.pair.key(), (p.status, p.since, p.last)))
+            .collect();
+        self.pairs = plan
+            .pairs
+            .iter()
+            .map(|&pp| {
+                let mut tp = TrackedPair::new(pp, t);
+                if let Some(&(status, since, last)) = old.get(&pp.key()) {
+                    tp.status = status;
+                    tp.since = since;
+                    tp.last = last;
+                }
+                tp
+            })
+            .collect();
+        self.released.clear();
+        self.complete_reported = false;
+        let robots = plan.slot_robot.clone();
+        let n = plan.pairs.len();
+        self.plan = Some(plan);
+        if replanned {
+            self.push(t, EventKind::Replanned { robots });
+        } else {
+            self.push(t, EventKind::Planned { robots, pairs: n });
+        }
+    }
+
+    /// Declare `robot` lost and, when it was part of the plan, recompute the plan without it.
+    pub fn mark_lost(&mut self, t: f64, robot: RobotId) {
+        if !self.lost.insert(robot) {
+            return;
+        }
+        self.push(t, EventKind::RobotLost { robot });
+        let Some(plan) = self.plan.clone() else {
+            return;
+        };
+        let Some(slot) = plan.slot_of(robot) else {
+            return;
+        };
+        let spec = match &plan.spec {
+            ShapeSpec::Fixed(shape) => match shape.without_slot(slot, &self.geometry) {
+                Ok(s) => ShapeSpec::Fixed(s),
+                Err(e) => {
+                    self.fail_replan(t, e.to_string());
+                    return;
+                }
+            },
+            other => other.clone(),
+        };
+        let states: Vec<RobotState> = self
+            .states()
+            .into_iter()
+            .filter(|r| plan.slot_of(r.id).is_some())
+            .collect();
+        match assign_connection_pairs(&spec, &states, Some(plan.heading), &self.geometry) {
+            Ok(p) => self.install(t, p, true),
+            Err(e) => self.fail_replan(t, e.to_string()),
+        }
+    }
+
+    fn fail_replan(&mut self, t: f64, reason: String) {
+        self.plan = None;
+        self.pairs.clear();
+        self.mode = Mode::Hold;
+        self.push(t, EventKind::ReplanFailed { reason });
+    }
+
+    /// Switch behaviour (formation is started with [`Coordinator::form`]).
+    pub fn set_mode(&mut self, t: f64, mode: Mode) {
+        let name = match &mode {
+            Mode::Hold => "hold",
+            Mode::Form => "form",
+            Mode::Velocity { .. } => "velocity",
+            Mode::GoTo { .. } => "go_to",
+            Mode::Track { .. } => "trajectory",
+            Mode::Rendezvous { anti: false, .. } => "rendezvous",
+            Mode::Rendezvous { anti: true, .. } => "anti_rendezvous",
+            Mode::Decouple { .. } => "decouple",
+            Mode::Disperse { .. } => "disperse",
+        };
+        self.mode = mode;
+        self.push(t, EventKind::BehaviourStarted { name: name.into() });
+    }
+
+    /// Segments (connected assemblies) from the connected, unreleased pairs: robot → segment.
+    pub fn segments(&self) -> BTreeMap<RobotId, usize> {
+        let ids: Vec<RobotId> = self
+            .robots
+            .keys()
+            .copied()
+            .filter(|id| !self.lost.contains(id))
+            .collect();
+        let index: BTreeMap<RobotId, usize> =
+            ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
+        let mut parent: Vec<usize> = (0..ids.len()).collect();
+        fn find(p: &mut [usize], mut x: usize) -> usize {
+            while p[x] != x {
+                p[x] = p[p[x]];
+                x = p[x];
+            }
+            x
+        }
+        for (i, tp) in self.pairs.iter().enumerate() {
+            if tp.status != PairStatus::Connected || self.released.contains(&i) {
+                continue;
+            }
+            if let (Some(&a), Some(&b)) = (index.get(&tp.pair.a), index.get(&tp.pair.b)) {
+                let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+        // Renumber roots densely in id order.
+        let mut dense = BTreeMap::new();
+        let mut out = BTreeMap::new();
+        for (i, &id) in ids.iter().enumerate() {
+            let r = find(&mut parent, i);
+            let n = dense.len();
+            let s = *dense.entry(r).or_insert(n);
+            out.insert(id, s);
+        }
+        out
+    }
+
+    /// One control tick: update statuses from `robots` (measured poses), detect lost robots,
+    /// and return every robot's task.
+    pub fn tick(&mut self, t: f64, robots: &[RobotState]) -> Tick {
+        self.observe(t, robots);
+        // Lost robots: planned robots unseen for too long (THESIS: re-plan without them).
+        if let Some(plan) = &self.plan {
+            let stale: Vec<RobotId> = plan
+                .slot_robot
+                .iter()
+                .copied()
+                .filter(|id| {
+                    self.robots
+                        .get(id)
+                        .is_none_or(|k| t - k.last_seen > self.cfg.lost_after_s)
+                })
+                .collect();
+            for id in stale {
+                self.mark_lost(t, id);
+            }
+        }
+        // Algorithm 8 on every tracked pair.
+        for i in 0..self.pairs.len() {
+            let (a, b) = (self.pairs[i].pair.a, self.pairs[i].pair.b);
+            let (Some(ka), Some(kb)) = (self.robots.get(&a), self.robots.get(&b)) else {
+                continue;
+            };
+            let (pa, pb) = (ka.pose, kb.pose);
+            let tr = self.pairs[i].update(t, &pa, &pb, &self.geometry, &self.cfg.tolerances);
+            let kind = self.pairs[i].pair.kind;
+            for x in tr {
+                self.push(
+                    x.t,
+                    EventKind::PairStatus {
+                        pair: i,
+                        a,
+                        b,
+                        kind,
+                        from: x.from,
+                        to: x.to,
+                    },
+                );
+            }
+        }
+        // Release decoupled pairs of a decouple behaviour.
+        if let Mode::Decouple { pairs, .. } = &self.mode {
+            let done: Vec<usize> = pairs
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    !self.released.contains(&i)
+                        && self
+                            .pairs
+                            .get(i)
+                            .is_some_and(|p| p.status == PairStatus::Decoupled)
+                })
+                .collect();
+            for i in done {
+                self.released.insert(i);
+                let p = self.pairs[i].pair;
+                self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
+            }
+        }
+        let complete = self.is_complete();
+        if complete && !self.complete_reported && self.mode == Mode::Form {
+            self.complete_reported = true;
+            self.push(t, EventKind::FormationComplete);
+        }
+        let segments = self.segments();
+        let (tasks, active) = self.tasks(t, &segments);
+        let maintain = self
+            .pairs
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| p.status == PairStatus::Connected && !self.released.contains(i))
+            .filter(|(i, _)| match &self.mode {
+                Mode::Decouple { pairs, .. } => !pairs.contains(i),
+                _ => true,
+            })
+            .map(|(_, p)| MaintainPair {
+                a: p.pair.a,
+                point_a: p.pair.point_a,
+                head_a: p.head_a(&self.geometry),
+                b: p.pair.b,
+                point_b: p.pair.point_b,
+                kind: p.pair.kind,
+            })
+            .collect();
+        Tick {
+            t,
+            tasks,
+            maintain,
+            active,
+            complete,
+            events: std::mem::take(&mut self.pending),
+        }
+    }
+
+    fn kind_of(&self, id: RobotId) -> RobotKind {
+        self.robots.get(&id).map_or(RobotKind::NonPilot, |k| k.kind)
+    }
+
+    /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
+    /// segments so that each segment has one leader, 5.5.9).
+    fn choose_active(&self, segments: &BTreeMap<RobotId, usize>) -> Vec<usize> {
+        let drivable: BTreeSet<usize> = segments
+            .iter()
+            .filter(|(id, _)| self.kind_of(**id) == RobotKind::NonPilot)
+            .map(|(_, &s)| s)
+            .collect();
+        let mut busy = BTreeSet::new();
+        let mut active = Vec::new();
+        // Smallest distance bucket that still has unconnected pairs.
+        let open_bucket = self
+            .pairs
+            .iter()
+            .filter(|p| p.status != PairStatus::Connected)
+            .map(|p| crate::assign::distance_bucket(p.pair.centre_distance))
+            .min();
+        // Pairs in progress first, then the queue order (convex-first).
+        let mut order: Vec<usize> = (0..self.pairs.len()).collect();
+        order.sort_by_key(|&i| {
+            (
+                self.pairs[i].status == PairStatus::Decoupled,
+                self.pairs[i].pair.order,
+            )
+        });
+        for i in order {
+            let tp = &self.pairs[i];
+            if tp.status == PairStatus::Connected || self.released.contains(&i) {
+                continue;
+            }
+            if self.cfg.strict_convex_first
+                && tp.status == PairStatus::Decoupled
+                && Some(crate::assign::distance_bucket(tp.pair.centre_distance)) != open_bucket
+            {
+                continue;
+            }
+            let (Some(&sa), Some(&sb)) = (segments.get(&tp.pair.a), segments.get(&tp.pair.b))
+            else {
+                continue;
+            };
+            if busy.contains(&sa) || busy.contains(&sb) {
+                continue;
+            }
+            if !drivable.contains(&sa) && !drivable.contains(&sb) {
+                continue;
+            }
+            busy.insert(sa);
+            busy.insert(sb);
+            active.push(i);
+        }
+        active
+    }
+
+    fn align_role(&self, i: usize, me: RobotId) -> Role {
+        let tp = &self.pairs[i];
+        let p: &PlannedPair = &tp.pair;
+        let g = &self.geometry;
+        // Decoupled: bring the augmented head to the opening / hole (THESIS 5.2.3 stage 1);
+        // afterwards the connection points themselves (stage 2, insertion).
+        let a_point = if tp.status == PairStatus::Decoupled {
+            p.point_a.head(g)
+        } else {
+            p.point_a.position(g)
+        };
+        let b_point = p.point_b.position(g);
+        if me == p.a {
+            Role::Align {
+                pair: i,
+                partner: p.b,
+                own_point: a_point,
+                partner_point: b_point,
+                relative_yaw: p.relative_yaw,
+                kind: p.kind,
+                phase: tp.status,
+            }
+        } else {
+            Role::Align {
+                pair: i,
+                partner: p.a,
+                own_point: b_point,
+                partner_point: a_point,
+                relative_yaw: -p.relative_yaw,
+                kind: p.kind,
+                phase: tp.status,
+            }
+        }
+    }
+
+    /// Members of each segment, by id.
+    fn members(segments: &BTreeMap<RobotId, usize>) -> BTreeMap<usize, Vec<RobotId>> {
+        let mut m: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        for (&id, &s) in segments {
+            m.entry(s).or_default().push(id);
+        }
+        m
+    }
+
+    /// Leader of a segment for assembly motion: the lowest-id non-pilot, else the lowest id.
+    fn motion_leader(&self, members: &[RobotId]) -> RobotId {
+        members
+            .iter()
+            .copied()
+            .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .unwrap_or(members[0])
+    }
+
+    fn tasks(&self, t: f64, segments: &BTreeMap<RobotId, usize>) -> (Vec<RobotTask>, Vec<usize>) {
+        let members = Self::members(segments);
+        let mut roles: BTreeMap<RobotId, (Role, Option<RobotId>)> = BTreeMap::new();
+        let mut active = Vec::new();
+        let lead_segment = |roles: &mut BTreeMap<RobotId, (Role, Option<RobotId>)>,
+                            seg: usize,
+                            leader: RobotId,
+                            role: Role| {
+            for &m in &members[&seg] {
+                if m == leader {
+                    roles.insert(m, (role.clone(), Some(leader)));
+                } else {
+                    roles.insert(m, (Role::Follow { leader }, Some(leader)));
+                }
+            }
+        };
+        match &self.mode {
+            Mode::Hold => {}
+            Mode::Form => {
+                active = self.choose_active(segments);
+                for &i in &active {
+                    let p = self.pairs[i].pair;
+                    for me in [p.a, p.b] {
+                        let seg = segments[&me];
+                        let alone_pilot = members[&seg]
+                            .iter()
+                            .all(|&m| self.kind_of(m) == RobotKind::Pilot);
+                        if alone_pilot {
+                            // THESIS 3.5.2: pilots are not driven until coupled.
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Wait, None));
+                            }
+                        } else {
+                            let role = self.align_role(i, me);
+                            lead_segment(&mut roles, seg, me, role);
+                        }
+                    }
+                }
+                // Robots with unfinished pairs that could not start wait.
+                for (i, tp) in self.pairs.iter().enumerate() {
+                    if tp.status != PairStatus::Connected && !self.released.contains(&i) {
+                        for me in [tp.pair.a, tp.pair.b] {
+                            roles.entry(me).or_insert((Role::Wait, None));
+                        }
+                    }
+                }
+            }
+            Mode::Velocity { v, w } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    lead_segment(&mut roles, seg, leader, Role::Velocity { v: *v, w: *w });
+                }
+            }
+            Mode::GoTo { goal } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    let target = self.leader_goal(leader, goal);
+                    lead_segment(
+                        &mut roles,
+                        seg,
+                        leader,
+                        Role::GoTo {
+                            goal: target,
+                            use_yaw: true,
+                        },
+                    );
+                }
+            }
+            Mode::Track { trajectory, start } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    let reference = (0..=self.cfg.horizon_steps)
+                        .filter_map(|k| trajectory.sample(t - start + k as f64 * self.cfg.dt))
+                        .map(|c| self.leader_goal(leader, &c))
+                        .collect();
+                    lead_segment(&mut roles, seg, leader, Role::Track { reference });
+                }
+            }
+            Mode::Rendezvous { robots, gain, anti } => {
+                let part: Vec<(RobotId, Pose2)> = robots
+                    .iter()
+                    .filter_map(|id| {
+                        self.robots
+                            .get(id)
+                            .filter(|_| !self.lost.contains(id))
+                            .map(|k| (*id, k.pose))
+                    })
+                    .collect();
+                let pos: Vec<[f64; 2]> = part.iter().map(|(_, p)| p.xy()).collect();
+                let u = rendezvous(&pos, *gain, *anti);
+                for ((id, pose), u) in part.iter().zip(u) {
+                    let (v, w) = point_command(pose, u[0], u[1], self.cfg.heading_gain);
+                    let (v, w) = if self.kind_of(*id) == RobotKind::Pilot {
+                        (v, 0.0)
+                    } else {
+                        (v, w)
+                    };
+                    roles.insert(*id, (Role::Velocity { v, w }, Some(*id)));
+                }
+            }
+            Mode::Decouple {
+                pairs,
+                wiggle,
+                start,
+            } => {
+                for &i in pairs {
+                    if self.released.contains(&i) {
+                        continue;
+                    }
+                    let Some(tp) = self.pairs.get(i) else {
+                        continue;
+                    };
+                    let (v, w) = wiggle.command(t - start);
+                    // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds.
+                    let w = if tp.pair.kind == PairType::KnobHole {
+                        0.0
+                    } else {
+                        w
+                    };
+                    roles.insert(tp.pair.a, (Role::Velocity { v, w }, Some(tp.pair.a)));
+                    roles.entry(tp.pair.b).or_insert((Role::Hold, None));
+                }
+            }
+            Mode::Disperse { goals } => {
+                for (id, goal) in goals {
+                    roles.insert(
+                        *id,
+                        (
+                            Role::GoTo {
+                                goal: *goal,
+                                use_yaw: false,
+                            },
+                            Some(*id),
+                        ),
+                    );
+                }
+            }
+        }
+        let tasks = segments
+            .iter()
+            .map(|(&id, &segment)| {
+                let (role, leader) = roles.remove(&id).unwrap_or((Role::Hold, None));
+                RobotTask {
+                    robot: id,
+                    role,
+                    straight_only: self.kind_of(id) == RobotKind::Pilot,
+                    leader,
+                    segment,
+                }
+            })
+            .collect();
+        (tasks, active)
+    }
+
+    /// Goal of a segment leader when the shape centre should be at `goal`: its slot placed at
+    /// the goal (or the goal itself without a plan).
+    fn leader_goal(&self, leader: RobotId, goal: &Pose2) -> Pose2 {
+        match &self.plan {
+            Some(plan) => match plan.slot_of(leader) {
+                Some(s) => goal.compose(&plan.shape.slots[s].pose),
+                None => *goal,
+            },
+            None => *goal,
+        }
+    }
+
+    /// Indices of connected pairs that involve `robot` (for decoupling it).
+    pub fn connected_pairs_of(&self, robot: RobotId) -> Vec<usize> {
+        self.pairs
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| {
+                p.pair.involves(robot)
+                    && !self.released.contains(i)
+                    && p.status != PairStatus::Decoupled
+            })
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// Indices of all tracked, unreleased pairs that are not decoupled.
+    pub fn coupled_pairs(&self) -> Vec<usize> {
+        self.pairs
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| !self.released.contains(i) && p.status != PairStatus::Decoupled)
+            .map(|(i, _)| i)
+            .collect()
+    }
+
+    /// Last known pose of a robot.
+    pub fn pose(&self, robot: RobotId) -> Option<Pose2> {
+        self.robots.get(&robot).map(|k| k.pose)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn np(id: RobotId, x: f64, y: f64, yaw: f64) -> RobotState {
+        RobotState {
+            id,
+            kind: RobotKind::NonPilot,
+            pose: Pose2::new(x, y, yaw),
+        }
+    }
+
+    fn coordinator() -> Coordinator {
+        Coordinator::from_params(&FleetParams::default())
+    }
+
+    /// Robots standing exactly on their plan's goal poses.
+    fn at_goals(c: &Coordinator, kinds: &BTreeMap<RobotId, RobotKind>) -> Vec<RobotState> {
+        let plan = c.plan().unwrap();
+        plan.slot_robot
+            .iter()
+            .zip(&plan.goal_poses)
+            .map(|(&id, &pose)| RobotState {
+                id,
+                kind: kinds[&id],
+                pose,
+            })
+            .collect()
+    }
+
+    fn role_of(tick: &Tick, id: RobotId) -> &Role {
+        &tick.tasks.iter().find(|t| t.robot == id).unwrap().role
+    }
+
+    #[test]
+    fn mesh_2x2_rows_first_then_side_then_complete() {
+        let mut c = coordinator();
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.0, 0.0),
+            np(3, 0.0, 0.3, 0.0),
+            np(4, 0.3, 0.3, 0.0),
+        ];
+        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
+            .unwrap();
+        let tick = c.tick(0.0, &robots);
+        assert_eq!(tick.active.len(), 2, "two row pairs in parallel");
+        for &i in &tick.active {
+            assert_eq!(c.pairs()[i].pair.kind, PairType::AnchorOpening);
+        }
+        for r in &robots {
+            assert!(matches!(role_of(&tick, r.id), Role::Align { .. }));
+        }
+        // Decoupled anchor robots aim their anchor head (THESIS Algorithm 7).
+        let i = tick.active[0];
+        let a = c.pairs()[i].pair.a;
+        match role_of(&tick, a) {
+            Role::Align { own_point, .. } => assert!((own_point[0] + 0.032).abs() < 1e-6),
+            other => panic!("{other:?}"),
+        }
+        // Everyone on the goal: pairs pass to inserted, then connected after confirmation.
+        let goal = at_goals(&c, &kinds);
+        let t1 = c.tick(1.0, &goal);
+        assert!(!t1.complete);
+        let t2 = c.tick(1.5, &goal);
+        assert!(t2.complete);
+        assert!(t2
+            .events
+            .iter()
+            .any(|e| e.kind == EventKind::FormationComplete));
+        assert_eq!(t2.maintain.len(), 3);
+        // Every pair's history is decoupled → aligned → inserted → connected, with times.
+        for i in 0..3 {
+            let steps: Vec<(f64, PairStatus)> = c
+                .events()
+                .iter()
+                .filter_map(|e| match e.kind {
+                    EventKind::PairStatus { pair, to, .. } if pair == i => Some((e.t, to)),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(
+                steps.iter().map(|s| s.1).collect::<Vec<_>>(),
+                vec![
+                    PairStatus::HeadAligned,
+                    PairStatus::HeadInserted,
+                    PairStatus::Connected
+                ]
+            );
+            assert_eq!(steps[2].0, 1.5);
+        }
+        let json = serde_json::to_string(&c.events()[0]).unwrap();
+        assert!(json.contains("\"event\":\"planned\""), "{json}");
+    }
+
+    #[test]
+    fn strict_convex_first_holds_back_the_side_pair() {
+        let mut c = coordinator();
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.0, 0.0),
+            np(3, 0.0, 0.3, 0.0),
+            np(4, 0.3, 0.3, 0.0),
+        ];
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
+            .unwrap();
+        // Connect only the first row pair: the knob pair must still wait for the other row.
+        let goal = at_goals(&c, &kinds);
+        let first = c.pairs()[0].pair;
+        let mixed: Vec<RobotState> = robots
+            .iter()
+            .map(|r| {
+                if r.id == first.a || r.id == first.b {
+                    *goal.iter().find(|g| g.id == r.id).unwrap()
+                } else {
+                    *r
+                }
+            })
+            .collect();
+        c.tick(0.0, &mixed);
+        let tick = c.tick(1.0, &mixed);
+        assert_eq!(c.pairs()[0].status, PairStatus::Connected);
+        assert_eq!(tick.active, vec![1], "only the second row pair is active");
+        // The connected row is one segment with one leader per active pair: here none, so hold.
+        let seg = tick
+            .tasks
+            .iter()
+            .find(|t| t.robot == first.a)
+            .unwrap()
+            .segment;
+        assert_eq!(
+            seg,
+            tick.tasks
+                .iter()
+                .find(|t| t.robot == first.b)
+                .unwrap()
+                .segment
+        );
+    }
+
+    #[test]
+    fn lost_robot_triggers_replan_without_it() {
+        let mut c = coordinator();
+        let robots: Vec<RobotState> = (1..=4)
+            .map(|i| np(i, 0.1 * f64::from(i), 0.2, 0.0))
+            .collect();
+        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        assert_eq!(c.plan().unwrap().pairs.len(), 3);
+        c.tick(0.0, &robots);
+        let without: Vec<RobotState> = robots.iter().copied().filter(|r| r.id != 3).collect();
+        c.tick(0.5, &without);
+        assert_eq!(c.plan().unwrap().slot_robot.len(), 4, "not lost yet");
+        let tick = c.tick(1.2, &without);
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| e.kind == EventKind::RobotLost { robot: 3 }));
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::Replanned { .. })));
+        let plan = c.plan().unwrap();
+        assert_eq!(plan.slot_robot.len(), 3);
+        assert!(!plan.slot_robot.contains(&3));
+        assert_eq!(plan.pairs.len(), 2);
+        assert!(plan.pairs.iter().all(|p| !p.involves(3)));
+        assert!(tick.tasks.iter().all(|t| t.robot != 3));
+        // If it shows up again it stays out of the plan.
+        c.tick(1.3, &robots);
+        assert!(!c.plan().unwrap().slot_robot.contains(&3));
+    }
+
+    #[test]
+    fn explicit_loss_of_a_fixed_shape_middle_slot_fails_cleanly() {
+        let g = Geometry::default();
+        let shape = crate::shape::Shape::line(3, &g).unwrap();
+        let mut c = coordinator();
+        let robots: Vec<RobotState> = (1..=3)
+            .map(|i| np(i, 0.1 * f64::from(i), 0.0, 0.0))
+            .collect();
+        c.form(0.0, ShapeSpec::Fixed(shape), &robots, Some(0.0))
+            .unwrap();
+        let middle = c.plan().unwrap().slot_robot[1];
+        c.mark_lost(0.1, middle);
+        assert!(c.plan().is_none());
+        assert!(c
+            .events()
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::ReplanFailed { .. })));
+    }
+
+    #[test]
+    fn lone_pilot_waits_and_non_pilot_aligns() {
+        let mut c = coordinator();
+        let mut robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
+        robots[1].kind = RobotKind::Pilot;
+        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        let tick = c.tick(0.0, &robots);
+        assert_eq!(role_of(&tick, 2), &Role::Wait);
+        assert!(matches!(role_of(&tick, 1), Role::Align { partner: 2, .. }));
+        assert!(
+            tick.tasks
+                .iter()
+                .find(|t| t.robot == 2)
+                .unwrap()
+                .straight_only
+        );
+    }
+
+    #[test]
+    fn assembly_moves_with_one_leader_and_decouples() {
+        let mut c = coordinator();
+        let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        let goal = at_goals(&c, &kinds);
+        c.tick(0.0, &goal);
+        assert!(c.tick(0.5, &goal).complete);
+        c.set_mode(0.5, Mode::Velocity { v: 0.02, w: 0.0 });
+        let tick = c.tick(0.6, &goal);
+        let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
+        assert_eq!(leaders.len(), 1, "one segment, one leader");
+        assert!(matches!(role_of(&tick, 1), Role::Velocity { .. }));
+        assert_eq!(role_of(&tick, 2), &Role::Follow { leader: 1 });
+        assert_eq!(tick.maintain.len(), 1);
+        // Decouple: the anchor robot wiggles; once apart the pair is released.
+        let pair = c.coupled_pairs();
+        c.set_mode(
+            1.0,
+            Mode::Decouple {
+                pairs: pair.clone(),
+                wiggle: Wiggle::default(),
+                start: 1.0,
+            },
+        );
+        let a = c.pairs()[pair[0]].pair.a;
+        let tick = c.tick(1.1, &goal);
+        assert!(matches!(role_of(&tick, a), Role::Velocity { .. }));
+        assert!(
+            tick.maintain.is_empty(),
+            "a pair being released is not maintained"
+        );
+        let apart: Vec<RobotState> = goal
+            .iter()
+            .map(|r| {
+                if r.id == a {
+                    RobotState {
+                        pose: Pose2::new(r.pose.x + 0.05, r.pose.y, 0.0),
+                        ..*r
+                    }
+                } else {
+                    *r
+                }
+            })
+            .collect();
+        let tick = c.tick(2.0, &apart);
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::PairReleased { .. })));
+        let segs: BTreeSet<_> = tick.tasks.iter().map(|t| t.segment).collect();
+        assert_eq!(segs.len(), 2);
+    }
+}
