@@ -360,14 +360,15 @@ impl HostSession {
         }
     }
 
-    /// Seal a command under the proven session (or, before any proof, the pending one).
+    /// Seal a command under the proven session; [`EncodeError::NoSession`] until the robot
+    /// has proven one (its first session frame after the welcome).
+    ///
+    /// Nothing is ever sealed under an unproven offer: a welcome can be lost, the host can
+    /// restart, and a captured copy of that welcome can later be delivered to a robot still
+    /// announcing the same nonce. Frames sealed under such an offer would then be replayable
+    /// into the robot's session; frames that were never sealed cannot be.
     pub fn send(&mut self, msg: &HostMsg, out: &mut [u8]) -> Result<usize, EncodeError> {
-        let newest_pending = self.pending.iter_mut().rev().flatten().next();
-        let a = match (self.active.as_mut(), newest_pending) {
-            (Some(a), _) => a,
-            (None, Some(p)) => p,
-            (None, None) => return Err(EncodeError::NoSession),
-        };
+        let a = self.active.as_mut().ok_or(EncodeError::NoSession)?;
         let c = next_counter(&mut a.tx)?;
         seal_as(&a.key, self.robot_id, Stream::Session, c, msg, out)
     }

@@ -530,3 +530,53 @@ fn sealing_into_a_small_buffer_is_an_error_not_a_panic() {
     // The failed attempts consumed counters but the session still works.
     assert_linked(&mut host, &mut robot);
 }
+
+#[test]
+fn the_host_seals_nothing_under_an_unproven_offer() {
+    // Host run 1 welcomes the robot, but the welcome is lost and host 1 dies. Had host 1
+    // sealed commands under that offer, an attacker holding them and the lost welcome could
+    // later open that session on the robot (it still announces the same nonce) and replay them.
+    let mut robot = RobotSession::new(ID, robot_key(), nonce(1));
+    let mut a = [0u8; MAX_DATAGRAM];
+    let n = robot
+        .announce(RobotKind::Pilot, FW, &mut a)
+        .expect("announce");
+    let mut host1 = HostSession::new(ID, robot_key());
+    let mut w1 = [0u8; MAX_DATAGRAM];
+    let Ok(HostReceived::Announce {
+        welcome_len: l1, ..
+    }) = host1.receive(&a[..n], || nonce(101), &mut w1)
+    else {
+        panic!("announce refused");
+    };
+    assert!(host1.has_pending());
+    assert_eq!(
+        host1.send(
+            &HostMsg::WheelSpeed {
+                left_rpm: 400.0,
+                right_rpm: 400.0
+            },
+            &mut [0u8; MAX_DATAGRAM]
+        ),
+        Err(EncodeError::NoSession)
+    );
+    // Host 2 answers the repeated announce; the attacker delivers the stale welcome first.
+    let mut host2 = HostSession::new(ID, robot_key());
+    let mut w2 = [0u8; MAX_DATAGRAM];
+    let Ok(HostReceived::Announce {
+        welcome_len: l2, ..
+    }) = host2.receive(&a[..n], || nonce(102), &mut w2)
+    else {
+        panic!("announce refused");
+    };
+    assert!(robot.receive(&w1[..l1]).is_ok());
+    assert_eq!(robot.receive(&w2[..l2]), Err(Rejection::Replay));
+    // The robot's telemetry does not prove anything to host 2; host 2 sends nothing.
+    let t = robot_frame(&mut robot, &RobotMsg::ParamsReply { rejected: None });
+    assert_eq!(to_host(&mut host2, &t).err(), Some(Rejection::BadTag));
+    assert!(!host2.is_established());
+    // The robot's failsafe fires (no valid command), it re-announces and recovers.
+    robot.restart(nonce(2));
+    handshake(&mut host2, &mut robot, nonce(103));
+    assert_linked(&mut host2, &mut robot);
+}
