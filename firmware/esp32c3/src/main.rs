@@ -1,33 +1,273 @@
-//! PuzzleBot firmware image for the Seeed XIAO ESP32-C3 (minimal bring-up).
+//! PuzzleBot firmware image for the Seeed XIAO ESP32-C3: glue between the hardware and
+//! `puzzlebot-firmware-core` (DESIGN.md §5). Everything the robot *does* lives in the core;
+//! this crate wires pins ([`pins`]), the encoder interrupts ([`encoders`]), the PWM
+//! ([`motors`]), the battery ADC ([`battery`]), Wi-Fi and UDP to it.
 #![no_std]
 #![no_main]
 
+mod battery;
+mod encoders;
+mod motors;
+mod pins;
+mod provision;
+
+use core::net::SocketAddrV4;
+use core::sync::atomic::{AtomicI32, Ordering};
+
 use embassy_executor::Spawner;
-use embassy_time::{Duration, Timer};
+use embassy_futures::select::{select, Either};
+use embassy_net::udp::{PacketMetadata, UdpSocket};
+use embassy_net::{IpEndpoint, Runner, Stack, StackResources};
+use embassy_time::{Duration, Ticker, Timer};
 use esp_backtrace as _;
+use esp_hal::gpio::Io;
+use esp_hal::rng::Rng;
 use esp_hal::timer::timg::TimerGroup;
+use esp_radio::wifi::sta::StationConfig;
+use esp_radio::wifi::{
+    AuthenticationMethodConfig, Config, ControllerConfig, Interface, PowerSaveMode, WifiController,
+};
+use puzzlebot_firmware_core::{NonceSource, Robot, Sensors};
+use puzzlebot_params::firmware::Firmware;
+use puzzlebot_protocol::{FirmwareVersion, Nonce, DEFAULT_ROBOT_PORT, MAX_DATAGRAM};
+use static_cell::StaticCell;
 
 esp_bootloader_esp_idf::esp_app_desc!();
 
-/// Heartbeat: proves the executor and the time driver run.
-#[embassy_executor::task]
-async fn heartbeat() {
-    let mut n: u32 = 0;
-    loop {
-        log::info!("alive {n} (protocol v{})", puzzlebot_protocol::PROTOCOL_VERSION);
-        n = n.wrapping_add(1);
-        Timer::after(Duration::from_secs(5)).await;
+/// Firmware version announced to the host (from this crate's version).
+const VERSION: FirmwareVersion = FirmwareVersion {
+    major: parse_u8(env!("CARGO_PKG_VERSION_MAJOR")),
+    minor: parse_u8(env!("CARGO_PKG_VERSION_MINOR")),
+    patch: parse_u8(env!("CARGO_PKG_VERSION_PATCH")),
+};
+
+const fn parse_u8(s: &str) -> u8 {
+    let b = s.as_bytes();
+    let mut i = 0;
+    let mut v: u8 = 0;
+    while i < b.len() {
+        v = v.wrapping_mul(10).wrapping_add(b[i].wrapping_sub(b'0'));
+        i += 1;
     }
+    v
+}
+
+/// Latest Wi-Fi RSSI (dBm), written by the Wi-Fi task, read by the control loop.
+static RSSI_DBM: AtomicI32 = AtomicI32::new(0);
+
+/// Handshake nonces from the hardware RNG (entropy from the radio while Wi-Fi runs).
+struct HwNonces(Rng);
+
+impl NonceSource for HwNonces {
+    fn fresh_nonce(&mut self) -> Nonce {
+        let mut n = [0u8; 16];
+        self.0.read(&mut n);
+        n
+    }
+}
+
+/// The network side of a provisioned robot.
+struct Net {
+    stack: Stack<'static>,
+    host: IpEndpoint,
 }
 
 #[esp_rtos::main]
 async fn main(spawner: Spawner) -> ! {
     esp_println::logger::init_logger(log::LevelFilter::Info);
-    let peripherals = esp_hal::init(esp_hal::Config::default());
+    let config = esp_hal::Config::default().with_cpu_clock(esp_hal::clock::CpuClock::max());
+    let peripherals = esp_hal::init(config);
+    // Wi-Fi needs a heap: the reclaimed bootloader RAM (64 KiB) plus 32 KiB.
+    esp_alloc::heap_allocator!(#[esp_hal::ram(reclaimed)] size: 64 * 1024);
+    esp_alloc::heap_allocator!(size: 32 * 1024);
+
     let timg0 = TimerGroup::new(peripherals.TIMG0);
     esp_rtos::start(timg0.timer0, peripherals.FROM_CPU_INTR0);
-    spawner.spawn(heartbeat().expect("heartbeat task spawned once"));
+
+    let board = take_board!(peripherals);
+    let mut io = Io::new(peripherals.IO_MUX);
+    encoders::start(&mut io, board.encoder);
+    let motors = match motors::Motors::new(peripherals.LEDC, board.motor) {
+        Ok(m) => m,
+        Err(e) => {
+            log::error!("PWM set-up failed: {e}; halting with motors undriven");
+            loop {
+                Timer::after(Duration::from_secs(3600)).await;
+            }
+        }
+    };
+    let battery = battery::Battery::new(peripherals.ADC1, board.battery);
+    let rng = Rng::new();
+    let kind = provision::kind();
+
+    let prov = provision::from_build_env();
+    let (id, key, net) = match prov {
+        Err(why) => {
+            log::warn!("unprovisioned build ({why}): the robot will never drive");
+            (provision::UNPROVISIONED_ID, None, None)
+        }
+        Ok(p) => {
+            let net = start_wifi(&spawner, peripherals.WIFI, &p, rng);
+            (p.id, Some(p.key), net)
+        }
+    };
+    let robot = match Robot::new(id, kind, key, Firmware::default(), VERSION, HwNonces(rng)) {
+        Ok(r) => r,
+        Err(e) => {
+            log::error!("invalid firmware parameters: {e}");
+            loop {
+                Timer::after(Duration::from_secs(3600)).await;
+            }
+        }
+    };
+    log::info!("PuzzleBot {id} ({kind:?}) firmware {VERSION:?} running");
+    control_loop(robot, motors, battery, net).await
+}
+
+/// Start Wi-Fi (station, power save off, reconnecting forever) and the IP stack.
+fn start_wifi(
+    spawner: &Spawner,
+    wifi: esp_hal::peripherals::WIFI<'static>,
+    p: &provision::Provision,
+    rng: Rng,
+) -> Option<Net> {
+    let auth = if p.password.is_empty() {
+        AuthenticationMethodConfig::Open
+    } else {
+        AuthenticationMethodConfig::WpaWpa2Personal(p.password.try_into().ok()?)
+    };
+    let station = StationConfig::default()
+        .with_ssid(p.ssid.try_into().ok()?)
+        .with_authentication(auth);
+    let mut controller = match WifiController::new(
+        wifi,
+        ControllerConfig::default().with_initial_config(Config::Station(station)),
+    ) {
+        Ok(c) => c,
+        Err(e) => {
+            log::error!("Wi-Fi start failed: {e:?}");
+            return None;
+        }
+    };
+    // Modem sleep adds hundreds of ms of latency (DESIGN.md §5).
+    if let Err(e) = controller.set_power_saving(PowerSaveMode::None) {
+        log::warn!("could not disable Wi-Fi power save: {e:?}");
+    }
+    static RESOURCES: StaticCell<StackResources<3>> = StaticCell::new();
+    let seed = (u64::from(rng.random()) << 32) | u64::from(rng.random());
+    let (stack, runner) = embassy_net::new(
+        Interface::station(),
+        embassy_net::Config::dhcpv4(Default::default()),
+        RESOURCES.init(StackResources::new()),
+        seed,
+    );
+    spawner.spawn(wifi_task(controller).ok()?);
+    spawner.spawn(net_task(runner).ok()?);
+    Some(Net {
+        stack,
+        host: endpoint(p.host),
+    })
+}
+
+fn endpoint(a: SocketAddrV4) -> IpEndpoint {
+    IpEndpoint::new(embassy_net::IpAddress::Ipv4(*a.ip()), a.port())
+}
+
+/// Keep the station connected: reconnect forever, publish the RSSI once a second.
+#[embassy_executor::task]
+async fn wifi_task(mut controller: WifiController<'static>) {
     loop {
-        Timer::after(Duration::from_secs(60)).await;
+        match controller.connect_async().await {
+            Ok(_) => {
+                log::info!("Wi-Fi connected");
+                loop {
+                    let lost = select(
+                        controller.wait_for_disconnect_async(),
+                        Timer::after(Duration::from_secs(1)),
+                    )
+                    .await;
+                    match lost {
+                        Either::First(_) => break,
+                        Either::Second(()) => {
+                            if let Ok(r) = controller.rssi() {
+                                RSSI_DBM.store(r, Ordering::Relaxed);
+                            }
+                        }
+                    }
+                }
+                log::warn!("Wi-Fi lost; reconnecting");
+            }
+            Err(e) => log::warn!("Wi-Fi connect failed: {e:?}"),
+        }
+        Timer::after(Duration::from_millis(500)).await;
+    }
+}
+
+#[embassy_executor::task]
+async fn net_task(mut runner: Runner<'static, Interface>) {
+    runner.run().await
+}
+
+/// Wait for a datagram, or forever without a socket.
+async fn receive(socket: Option<&mut UdpSocket<'_>>, buf: &mut [u8]) -> Option<usize> {
+    match socket {
+        Some(s) => s.recv_from(buf).await.ok().map(|(n, _)| n),
+        None => core::future::pending().await,
+    }
+}
+
+/// The 50 Hz loop: tick the core with encoder snapshots, battery and RSSI, drive the PWM;
+/// feed received datagrams to the core; send what the core wants to send.
+async fn control_loop<N: NonceSource>(
+    mut robot: Robot<N>,
+    motors: motors::Motors,
+    mut battery: battery::Battery,
+    net: Option<Net>,
+) -> ! {
+    let mut rx_meta = [PacketMetadata::EMPTY; 4];
+    let mut tx_meta = [PacketMetadata::EMPTY; 4];
+    let mut rx_store = [0u8; 4 * MAX_DATAGRAM];
+    let mut tx_store = [0u8; 4 * MAX_DATAGRAM];
+    let mut socket = net.as_ref().map(|n| {
+        UdpSocket::new(
+            n.stack,
+            &mut rx_meta,
+            &mut rx_store,
+            &mut tx_meta,
+            &mut tx_store,
+        )
+    });
+    if let Some(s) = socket.as_mut() {
+        if let Err(e) = s.bind(DEFAULT_ROBOT_PORT) {
+            log::error!("UDP bind failed: {e:?}");
+        }
+    }
+    let host = net.as_ref().map(|n| n.host);
+    let mut ticker = Ticker::every(Duration::from_micros(robot.period_us()));
+    let mut rx = [0u8; MAX_DATAGRAM + 1];
+    let mut tx = [0u8; MAX_DATAGRAM];
+    loop {
+        match select(ticker.next(), receive(socket.as_mut(), &mut rx)).await {
+            Either::First(()) => {
+                let sensors = Sensors {
+                    battery_mv: battery.read_mv(),
+                    rssi_dbm: RSSI_DBM.load(Ordering::Relaxed).clamp(-128, 127) as i8,
+                    encoders: encoders::snapshot(),
+                };
+                let out = robot.tick(encoders::now_us(), &sensors);
+                motors.apply(&out);
+            }
+            Either::Second(Some(n)) => {
+                // Oversized datagrams arrive truncated to MAX_DATAGRAM + 1 and are rejected.
+                let _ = robot.on_datagram(&rx[..n], encoders::now_us());
+            }
+            Either::Second(None) => {}
+        }
+        while let Some(n) = robot.poll_transmit(encoders::now_us(), &mut tx) {
+            if let (Some(s), Some(h)) = (socket.as_mut(), host) {
+                // Latest wins: a datagram that cannot be sent now is dropped, not queued.
+                let _ = s.send_to(&tx[..n], h).await;
+            }
+        }
     }
 }
