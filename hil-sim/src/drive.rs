@@ -1,0 +1,510 @@
+//! One robot's drive plant: two DC motors behind DRV8833 bridges, gearboxes with static,
+//! Coulomb and viscous friction, wheels with traction limits, the body on the floor
+//! (two wheels + casters, or four wheels), and the LiPo battery with sag.
+//!
+//! # Model
+//!
+//! Unknowns after one fixed step `dt` (1 ms by default): wheel speeds ω_l, ω_r (output
+//! shaft, rad/s) and the body-frame velocities v (forward), Ω (yaw rate), v_y (sideways).
+//!
+//! * Motor s (armature R, L, k_t = k_e = k; gear ratio N, efficiency η): the bridge
+//!   gives an average armature voltage; slow decay (one input held high) keeps the
+//!   armature closed, `L di/dt = (d₁−d₂)·V − R i − k N ω`; fast decay (one input low)
+//!   coasts during the off time, which scales drive and back-EMF damping by the duty D:
+//!   `L di/dt = D·(±V − k N ω) − R i`. The current is integrated with backward Euler
+//!   (L/R ≈ 55 µs ≪ dt, so it is L-stable and exact at steady state); wheel torque
+//!   `η N k i`.
+//! * Gearbox friction at the wheel shaft: a wheel at rest stays locked while the torque
+//!   reaching it is below the static friction (the start-up dead-band M_min of THESIS 3.4);
+//!   once turning, Coulomb plus viscous friction.
+//! * Wheel–floor traction per side: `F = c·(r ω − v_contact)`, linear up to the slip speed
+//!   and capped at μN (wheel spin / skid; this is the slip limit of the unicycle).
+//! * Body (THESIS 2.1 / 5.1 unicycle, with forces): `m v̇ = F_l + F_r + casters`,
+//!   `I Ω̇ = (F_r − F_l) L/2 + Σ x_j F_lat,j`, `m v̇_y = Σ F_lat,j`. Lateral tyre forces
+//!   follow the slip angle α = |v_lat| / |v_long| up to saturation (μ_lat N at
+//!   `slip_angle_saturation`): the wheels of a pilot sit at x = ±d, so yawing scrubs them
+//!   sideways; at standstill that costs the full μ_lat N d per wheel (the motors stall),
+//!   while rolling forward makes the slip angle small (the pilot "needs forward speed to
+//!   turn", THESIS 3.5.1). A non-pilot's wheels sit on the centre line: it turns in place.
+//!
+//! All linear terms (motor damping, traction, secant lateral and caster friction) are
+//! implicit, so the step is stable for every parameter set; the result is a 5 × 5 linear
+//! solve per robot per step.
+
+use puzzlebot_params::{mass::Mass, plant::Plant, RobotKind};
+
+/// Gravity (m/s²).
+pub const G: f64 = 9.81;
+
+/// Commands of one H-bridge: per-mille duties of xIN1 and xIN2 (0…1000), as the DRV8833
+/// sees them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Bridge {
+    /// xIN1 duty, per-mille.
+    pub in1: u16,
+    /// xIN2 duty, per-mille.
+    pub in2: u16,
+}
+
+impl Bridge {
+    /// Average armature drive: (voltage factor a/V, damping factor g) such that the
+    /// armature sees `a·V − g·e` with back-EMF e.
+    fn drive(self) -> (f64, f64) {
+        let d1 = f64::from(self.in1.min(1000)) / 1000.0;
+        let d2 = f64::from(self.in2.min(1000)) / 1000.0;
+        if d1 == 0.0 && d2 == 0.0 {
+            (0.0, 0.0) // coast: open armature
+        } else if d1 == 0.0 || d2 == 0.0 {
+            // Fast decay: driven during the on time, coasting otherwise.
+            let d = d1 - d2;
+            (d, d.abs())
+        } else {
+            // Slow decay (or brake): the armature is always closed.
+            (d1 - d2, 1.0)
+        }
+    }
+}
+
+/// Derived constants of one robot's drive (computed once).
+#[derive(Debug, Clone, Copy)]
+pub struct DriveModel {
+    /// Wheel radius (m).
+    pub r: f64,
+    /// Wheel base (m).
+    pub base: f64,
+    /// Mass (kg).
+    pub m: f64,
+    /// Yaw inertia (kg·m²).
+    pub iz: f64,
+    /// Wheel-side inertia of one motor + gearbox + wheel (kg·m²).
+    pub jw: f64,
+    /// Motor constant (SI).
+    pub k: f64,
+    /// Armature resistance (Ω).
+    pub res: f64,
+    /// Armature inductance (H).
+    pub ind: f64,
+    /// Gear ratio.
+    pub n: f64,
+    /// Gear efficiency.
+    pub eta: f64,
+    /// Static friction torque at the wheel (N·m).
+    pub t_static: f64,
+    /// Coulomb friction torque at the wheel (N·m).
+    pub t_coulomb: f64,
+    /// Viscous friction (N·m·s/rad).
+    pub b_visc: f64,
+    /// Traction cap per side (N).
+    pub traction_max: f64,
+    /// Traction slope per side (N per m/s of slip).
+    pub traction_c: f64,
+    /// Lateral wheel contacts: (x in body frame, μ_lat·N).
+    pub lateral: [(f64, f64); 4],
+    /// Number of used entries of `lateral`.
+    pub n_lateral: usize,
+    /// Casters: (x, μ·N).
+    pub casters: [(f64, f64); 2],
+    /// Number of casters.
+    pub n_casters: usize,
+    /// Slip angle at which lateral tyre force saturates (rad).
+    pub alpha_sat: f64,
+    /// Battery.
+    pub battery: BatteryModel,
+}
+
+/// Battery constants.
+#[derive(Debug, Clone, Copy)]
+pub struct BatteryModel {
+    /// Open-circuit voltage at 50 % charge (V).
+    pub nominal: f64,
+    /// Open-circuit swing from empty to full (V).
+    pub swing: f64,
+    /// Internal resistance (Ω).
+    pub resistance: f64,
+    /// Capacity (C).
+    pub capacity_c: f64,
+    /// Current of the electronics (A).
+    pub idle: f64,
+}
+
+/// Speed below which a wheel counts as standing (rad/s).
+const WHEEL_REST: f64 = 1e-3;
+/// Regularisation speed of sliding friction (m/s).
+const V_REG: f64 = 2e-3;
+/// Rolling speed added under the slip angle so a standing wheel has a finite stiffness.
+const V_ROLL_EPS: f64 = 5e-3;
+
+impl DriveModel {
+    /// Constants for a robot of `kind` with the given parameters.
+    pub fn new(
+        kind: RobotKind,
+        p: &Plant,
+        mass: &Mass,
+        geom: &puzzlebot_params::geometry::Geometry,
+    ) -> Self {
+        let m = f64::from(mass.mass);
+        let w = m * G;
+        let _ = kind;
+        let four = p.four_wheels;
+        let wheel_share = if four {
+            1.0
+        } else {
+            f64::from(p.wheel_load_fraction).clamp(0.0, 1.0)
+        };
+        let n_side = w * wheel_share * 0.5;
+        let mu = f64::from(p.wheel_friction);
+        let mu_lat = f64::from(p.wheel_lateral_friction);
+        let d = f64::from(p.wheel_axle_offset);
+        let mut lateral = [(0.0, 0.0); 4];
+        let n_lateral = if four {
+            // Two wheels per side at x = ±d; each carries a quarter of the weight.
+            lateral[0] = (d, mu_lat * w * 0.25 * 2.0);
+            lateral[1] = (-d, mu_lat * w * 0.25 * 2.0);
+            2
+        } else {
+            lateral[0] = (0.0, mu_lat * n_side * 2.0);
+            1
+        };
+        let mut casters = [(0.0, 0.0); 2];
+        let n_casters = if four {
+            0
+        } else {
+            let nc = w * (1.0 - wheel_share) * 0.5;
+            let c = f64::from(p.caster_offset);
+            casters[0] = (c, f64::from(p.caster_friction) * nc);
+            casters[1] = (-c, f64::from(p.caster_friction) * nc);
+            2
+        };
+        let n = f64::from(p.gear_ratio);
+        DriveModel {
+            r: f64::from(geom.wheel_radius),
+            base: f64::from(geom.wheel_base),
+            m,
+            iz: f64::from(p.yaw_inertia),
+            jw: f64::from(p.rotor_inertia) * n * n,
+            k: f64::from(p.motor_k),
+            res: f64::from(p.motor_resistance),
+            ind: f64::from(p.motor_inductance),
+            n,
+            eta: f64::from(p.gear_efficiency),
+            t_static: f64::from(p.friction_static),
+            t_coulomb: f64::from(p.friction_coulomb),
+            b_visc: f64::from(p.friction_viscous),
+            traction_max: mu * n_side,
+            traction_c: mu * n_side / f64::from(p.traction_slip_speed).max(1e-4),
+            lateral,
+            n_lateral,
+            casters,
+            n_casters,
+            alpha_sat: f64::from(p.slip_angle_saturation).max(1e-3),
+            battery: BatteryModel {
+                nominal: f64::from(p.battery_voltage),
+                swing: f64::from(p.battery_voltage_swing),
+                resistance: f64::from(p.battery_resistance),
+                capacity_c: f64::from(p.battery_capacity_mah) * 3.6,
+                idle: f64::from(p.idle_current),
+            },
+        }
+    }
+}
+
+/// The evolving state of one robot's drive.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DriveState {
+    /// Wheel speeds left, right (rad/s, output shaft; positive drives forward).
+    pub wheel: [f64; 2],
+    /// Wheel angles (rad, output shaft, unwrapped).
+    pub angle: [f64; 2],
+    /// Armature currents (A).
+    pub current: [f64; 2],
+    /// Forward speed (m/s, body frame).
+    pub v: f64,
+    /// Sideways speed (m/s, body frame, left positive).
+    pub vy: f64,
+    /// Yaw rate (rad/s).
+    pub omega: f64,
+    /// Battery state of charge (0…1).
+    pub soc: f64,
+    /// Battery terminal voltage at the last step (V).
+    pub battery_v: f64,
+    /// Traction forces left, right at the last step (N).
+    pub traction: [f64; 2],
+}
+
+impl DriveState {
+    /// At rest with the battery at `soc`.
+    pub fn at_rest(model: &DriveModel, soc: f64) -> DriveState {
+        let soc = soc.clamp(0.0, 1.0);
+        DriveState {
+            soc,
+            battery_v: model.battery.open_circuit(soc),
+            ..DriveState::default()
+        }
+    }
+}
+
+impl BatteryModel {
+    /// Open-circuit voltage at `soc` (linear around the nominal voltage).
+    pub fn open_circuit(&self, soc: f64) -> f64 {
+        self.nominal + (soc - 0.5) * self.swing
+    }
+}
+
+/// Solve `a x = b` (5 × 5) by Gaussian elimination with partial pivoting.
+fn solve5(mut a: [[f64; 5]; 5], mut b: [f64; 5]) -> [f64; 5] {
+    for col in 0..5 {
+        let mut piv = col;
+        for r in col + 1..5 {
+            if a[r][col].abs() > a[piv][col].abs() {
+                piv = r;
+            }
+        }
+        a.swap(col, piv);
+        b.swap(col, piv);
+        let d = a[col][col];
+        if d.abs() < 1e-300 {
+            continue;
+        }
+        for r in col + 1..5 {
+            let f = a[r][col] / d;
+            if f != 0.0 {
+                for c in col..5 {
+                    a[r][c] -= f * a[col][c];
+                }
+                b[r] -= f * b[col];
+            }
+        }
+    }
+    let mut x = [0.0; 5];
+    for r in (0..5).rev() {
+        let mut s = b[r];
+        for c in r + 1..5 {
+            s -= a[r][c] * x[c];
+        }
+        x[r] = if a[r][r].abs() < 1e-300 { 0.0 } else { s / a[r][r] };
+    }
+    x
+}
+
+/// Advance the drive by `dt` seconds with the bridge commands `cmd` (left, right).
+pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) {
+    let md = model;
+    let vbat = st.battery_v;
+    let half = md.base * 0.5;
+    // Motor terms: wheel torque = A_s − B_s·ω_s' (after eliminating the current).
+    let r_eff = md.res + md.ind / dt;
+    let mut a_m = [0.0; 2];
+    let mut b_m = [0.0; 2];
+    let mut cur_c0 = [0.0; 2];
+    let mut cur_c1 = [0.0; 2];
+    for s in 0..2 {
+        let (av, g) = cmd[s].drive();
+        let c0 = (md.ind / dt * st.current[s] + av * vbat) / r_eff;
+        let c1 = g * md.k * md.n / r_eff;
+        cur_c0[s] = c0;
+        cur_c1[s] = c1;
+        a_m[s] = md.eta * md.n * md.k * c0;
+        b_m[s] = md.eta * md.n * md.k * c1 + md.b_visc;
+    }
+    // Contact speeds at the start of the step (for the secant stiffnesses).
+    let long = [st.v - st.omega * half, st.v + st.omega * half];
+    let roll = (0.5 * (long[0].abs() + long[1].abs())).max(0.0);
+    // Friction decisions per wheel: locked (static) or Coulomb with a sign.
+    let mut locked = [false; 2];
+    let mut t_fric = [0.0; 2];
+    for s in 0..2 {
+        let w = st.wheel[s];
+        if w.abs() < WHEEL_REST {
+            let slip = md.r * w - long[s];
+            let f_now = (md.traction_c * slip).clamp(-md.traction_max, md.traction_max);
+            let t_net = a_m[s] - md.r * f_now;
+            if t_net.abs() <= md.t_static {
+                locked[s] = true;
+            } else {
+                t_fric[s] = -md.t_coulomb * t_net.signum();
+            }
+        } else {
+            t_fric[s] = -md.t_coulomb * w.signum();
+        }
+    }
+    // Secant lateral stiffnesses (wheel scrub with slip angle, caster sliding).
+    let mut lat_k = [0.0; 4];
+    for (j, lk) in lat_k.iter_mut().enumerate().take(md.n_lateral) {
+        let (x, mu_n) = md.lateral[j];
+        let vl = (st.vy + st.omega * x).abs();
+        let by_angle = 1.0 / (md.alpha_sat * (roll + V_ROLL_EPS));
+        let by_cap = 1.0 / vl.max(V_REG);
+        *lk = mu_n * by_angle.min(by_cap);
+    }
+    let mut cas_k = [0.0; 2];
+    for (j, ck) in cas_k.iter_mut().enumerate().take(md.n_casters) {
+        let (x, mu_n) = md.casters[j];
+        let sp = st.v.hypot(st.vy + st.omega * x);
+        *ck = mu_n / sp.max(V_REG);
+    }
+    let mut sat: [Option<f64>; 2] = [None, None];
+    let mut x = [0.0; 5];
+    for _pass in 0..4 {
+        // Rows: 0,1 wheels; 2 v; 3 Ω; 4 v_y. Columns: ω_l, ω_r, v, Ω, v_y.
+        let mut a = [[0.0; 5]; 5];
+        let mut b = [0.0; 5];
+        // Traction coefficients F_s = c·(r ω_s − v ± Ω·half) or a constant.
+        // left contact speed = v − Ω half; right = v + Ω half.
+        let sign_om = [half, -half];
+        for s in 0..2 {
+            if locked[s] {
+                a[s][s] = 1.0;
+                b[s] = 0.0;
+            } else {
+                a[s][s] = md.jw + dt * b_m[s];
+                b[s] = md.jw * st.wheel[s] + dt * (a_m[s] + t_fric[s]);
+            }
+            match sat[s] {
+                Some(f) => {
+                    if !locked[s] {
+                        b[s] -= dt * md.r * f;
+                    }
+                    b[2] += dt * f;
+                    // Torque (F_r − F_l)·half: left −half, right +half.
+                    b[3] += dt * f * if s == 0 { -half } else { half };
+                }
+                None => {
+                    let c = md.traction_c;
+                    // Wheel row: + dt·r·F.
+                    if !locked[s] {
+                        a[s][s] += dt * md.r * c * md.r;
+                        a[s][2] += -dt * md.r * c;
+                        a[s][3] += dt * md.r * c * sign_om[s];
+                    }
+                    // v row: − dt·F.
+                    a[2][s] -= dt * c * md.r;
+                    a[2][2] += dt * c;
+                    a[2][3] -= dt * c * sign_om[s];
+                    // Ω row: − dt·(±half)·F.
+                    let arm = if s == 0 { -half } else { half };
+                    a[3][s] -= dt * arm * c * md.r;
+                    a[3][2] += dt * arm * c;
+                    a[3][3] -= dt * arm * c * sign_om[s];
+                }
+            }
+        }
+        a[2][2] += md.m;
+        b[2] += md.m * st.v;
+        a[3][3] += md.iz;
+        b[3] += md.iz * st.omega;
+        a[4][4] += md.m;
+        b[4] += md.m * st.vy;
+        // Lateral wheel forces F = −k (v_y + Ω x).
+        for j in 0..md.n_lateral {
+            let (xj, _) = md.lateral[j];
+            let k = lat_k[j];
+            a[4][4] += dt * k;
+            a[4][3] += dt * k * xj;
+            a[3][4] += dt * k * xj;
+            a[3][3] += dt * k * xj * xj;
+        }
+        for j in 0..md.n_casters {
+            let (xj, _) = md.casters[j];
+            let k = cas_k[j];
+            a[2][2] += dt * k;
+            a[4][4] += dt * k;
+            a[4][3] += dt * k * xj;
+            a[3][4] += dt * k * xj;
+            a[3][3] += dt * k * xj * xj;
+        }
+        x = solve5(a, b);
+        // Traction limits and friction sign changes.
+        let mut again = false;
+        for s in 0..2 {
+            if sat[s].is_none() {
+                let contact = x[2] - sign_om[s] * x[3];
+                let f = md.traction_c * (md.r * x[s] - contact);
+                if f.abs() > md.traction_max {
+                    sat[s] = Some(md.traction_max * f.signum());
+                    again = true;
+                }
+            }
+            if !locked[s] && st.wheel[s].abs() >= WHEEL_REST && st.wheel[s] * x[s] < 0.0 {
+                locked[s] = true;
+                again = true;
+            }
+        }
+        if !again {
+            break;
+        }
+    }
+    for s in 0..2 {
+        let contact = x[2] - [half, -half][s] * x[3];
+        st.traction[s] = match sat[s] {
+            Some(f) => f,
+            None => md.traction_c * (md.r * x[s] - contact),
+        };
+        st.current[s] = cur_c0[s] - cur_c1[s] * x[s];
+        st.wheel[s] = x[s];
+        st.angle[s] += x[s] * dt;
+    }
+    st.v = x[2];
+    st.omega = x[3];
+    st.vy = x[4];
+    // Battery: motors draw |i| from the pack (regeneration is not stored).
+    let i_total = md.battery.idle + st.current[0].abs() + st.current[1].abs();
+    st.soc = (st.soc - i_total * dt / md.battery.capacity_c).max(0.0);
+    st.battery_v = (md.battery.open_circuit(st.soc) - i_total * md.battery.resistance).max(0.0);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use puzzlebot_params::RobotParams;
+
+    fn model(kind: RobotKind) -> (DriveModel, DriveState) {
+        let p = RobotParams::for_kind(kind);
+        let m = DriveModel::new(kind, &p.plant, &p.mass, &p.geometry);
+        let s = DriveState::at_rest(&m, f64::from(p.plant.battery_initial_soc));
+        (m, s)
+    }
+
+    fn run(kind: RobotKind, duty: [i16; 2], secs: f64) -> (DriveModel, DriveState) {
+        let (m, mut s) = model(kind);
+        let b = |d: i16| {
+            if d >= 0 {
+                Bridge { in1: 1000, in2: 1000 - d as u16 }
+            } else {
+                Bridge { in1: 1000 - (-d) as u16, in2: 1000 }
+            }
+        };
+        for _ in 0..(secs * 1000.0) as usize {
+            step(&m, &mut s, [b(duty[0]), b(duty[1])], 1e-3);
+        }
+        (m, s)
+    }
+
+    #[test]
+    fn full_duty_reaches_the_450_rpm_range() {
+        let (_, s) = run(RobotKind::NonPilot, [1000, 1000], 1.0);
+        let rpm = s.wheel[0] * 60.0 / (2.0 * core::f64::consts::PI);
+        assert!((455.0..560.0).contains(&rpm), "top speed {rpm} RPM");
+        assert!(s.v > 0.7, "{}", s.v);
+    }
+
+    #[test]
+    fn small_duty_is_inside_the_dead_band() {
+        let (m, _) = model(RobotKind::NonPilot);
+        let (_, s) = run(RobotKind::NonPilot, [60, 60], 0.5);
+        assert_eq!(s.wheel, [0.0, 0.0], "6 % duty must not start the wheels");
+        let (_, s) = run(RobotKind::NonPilot, [200, 200], 0.5);
+        assert!(s.wheel[0] > 1.0);
+        assert!(m.t_static > m.t_coulomb);
+    }
+
+    #[test]
+    fn non_pilot_turns_in_place_pilot_does_not() {
+        let (_, np) = run(RobotKind::NonPilot, [-600, 600], 1.0);
+        let (_, pi) = run(RobotKind::Pilot, [-600, 600], 1.0);
+        assert!(np.omega > 5.0, "non-pilot spins at {}", np.omega);
+        assert!(pi.omega.abs() < 0.3 * np.omega, "pilot spins at {}", pi.omega);
+        // The pilot turns once it rolls forward.
+        let (_, pf) = run(RobotKind::Pilot, [400, 900], 1.5);
+        assert!(pf.omega > 2.0 * pi.omega.abs(), "{} vs {}", pf.omega, pi.omega);
+    }
+}

@@ -1,0 +1,143 @@
+//! Planar poses and small vector helpers (f64, metres and radians).
+
+use serde::{Deserialize, Serialize};
+
+/// A 2-D vector.
+pub type V2 = [f64; 2];
+
+/// A planar pose: position (m) and heading (rad, CCW from +x).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub yaw: f64,
+}
+
+impl Pose {
+    /// A pose from its parts.
+    pub fn new(x: f64, y: f64, yaw: f64) -> Pose {
+        Pose { x, y, yaw }
+    }
+
+    /// A body-frame point in the world frame.
+    pub fn apply(&self, p: V2) -> V2 {
+        let (s, c) = self.yaw.sin_cos();
+        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
+    }
+
+    /// A world point in this body frame.
+    pub fn inverse_apply(&self, p: V2) -> V2 {
+        let (s, c) = self.yaw.sin_cos();
+        let d = [p[0] - self.x, p[1] - self.y];
+        [c * d[0] + s * d[1], -s * d[0] + c * d[1]]
+    }
+
+    /// A body-frame direction in the world frame.
+    pub fn rotate(&self, v: V2) -> V2 {
+        let (s, c) = self.yaw.sin_cos();
+        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+
+    /// Position as a vector.
+    pub fn pos(&self) -> V2 {
+        [self.x, self.y]
+    }
+}
+
+/// Wrap an angle to (−π, π].
+pub fn wrap(a: f64) -> f64 {
+    let mut a = a % (2.0 * core::f64::consts::PI);
+    if a > core::f64::consts::PI {
+        a -= 2.0 * core::f64::consts::PI;
+    } else if a <= -core::f64::consts::PI {
+        a += 2.0 * core::f64::consts::PI;
+    }
+    a
+}
+
+/// a − b.
+pub fn sub(a: V2, b: V2) -> V2 {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+/// a + b.
+pub fn add(a: V2, b: V2) -> V2 {
+    [a[0] + b[0], a[1] + b[1]]
+}
+
+/// k·a.
+pub fn scale(a: V2, k: f64) -> V2 {
+    [a[0] * k, a[1] * k]
+}
+
+/// Dot product.
+pub fn dot(a: V2, b: V2) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// z of the cross product.
+pub fn cross(a: V2, b: V2) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+/// Euclidean length.
+pub fn norm(a: V2) -> f64 {
+    a[0].hypot(a[1])
+}
+
+/// True when `p` is inside the convex hull of `pts` (any order, ≥ 3 points; fewer: false).
+pub fn in_convex_hull(pts: &[V2], p: V2) -> bool {
+    if pts.len() < 3 {
+        return false;
+    }
+    // Monotone-chain hull, then a same-side test.
+    let mut v: Vec<V2> = pts.to_vec();
+    v.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let mut hull: Vec<V2> = Vec::with_capacity(v.len() * 2);
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &V2>> = if pass == 0 {
+            Box::new(v.iter())
+        } else {
+            Box::new(v.iter().rev())
+        };
+        for &q in iter {
+            while hull.len() >= start + 2
+                && cross(
+                    sub(hull[hull.len() - 1], hull[hull.len() - 2]),
+                    sub(q, hull[hull.len() - 2]),
+                ) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    if hull.len() < 3 {
+        return false;
+    }
+    let n = hull.len();
+    (0..n).all(|i| cross(sub(hull[(i + 1) % n], hull[i]), sub(p, hull[i])) >= -1e-12)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pose_round_trip_and_hull() {
+        let p = Pose::new(1.0, 2.0, 0.7);
+        let w = p.apply([0.3, -0.1]);
+        let b = p.inverse_apply(w);
+        assert!((b[0] - 0.3).abs() < 1e-12 && (b[1] + 0.1).abs() < 1e-12);
+        let sq = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]];
+        assert!(in_convex_hull(&sq, [0.5, 0.2]));
+        assert!(!in_convex_hull(&sq, [1.5, 0.2]));
+        assert!(!in_convex_hull(&sq[..2], [0.5, 0.0]));
+        assert!((wrap(3.5 * core::f64::consts::PI) - core::f64::consts::PI * 1.5 + 2.0 * core::f64::consts::PI).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,611 @@
+//! Contacts and couplings between robots: a documented kinematic / constraint model.
+//!
+//! # Why not a physics engine
+//!
+//! DESIGN.md §6 asks for a well-kept physics library unless a kinematic model is simpler
+//! and reproduces the behaviours. The behaviours are all planar and geometric (THESIS
+//! 4.2.2, 4.4.1, 5.2.3, 5.5.2, 5.7): the anchor enters only when its head is within
+//! 3.5 mm of the opening, it cannot be pulled straight out because the pull-out force
+//! (> 0.6 N at 0.4 mm, rising beyond; `Coupling::anchor_hold_force`) exceeds anything one
+//! robot's traction (≈ 0.5 N) can produce, a wiggle pops the legs from the slits, the
+//! coupled anchor leaves ±0.5 rad and 5 mm of play, knobs need < 1 mm and are rigid.
+//! THESIS itself simulated the soft anchor in Bullet as a three-bar linkage with torque
+//! limits (4.4.2) and still needed hand-tuned joint limits. A rigid-body engine (rapier2d)
+//! would need the same hand-made rules for leg engagement and release on top of its
+//! contacts, at ~10× the cost per robot, while the drive plant ([`crate::drive`])
+//! already carries all forces on the wheels. So we use position-based dynamics (PBD):
+//! after each plant step, overlaps and coupling limits are removed by mass-weighted
+//! projection (Gauss–Seidel, a few iterations), and the projection's displacement is fed
+//! back into the robots' velocities, which makes momentum flow between robots: a driving
+//! robot pushes another, its wheels slip when it is blocked, and coupled groups move
+//! together.
+//!
+//! # Shapes
+//!
+//! A robot is a `length × width` rectangle plus its anchor head point a
+//! (`Geometry::anchor_head`, 7 mm behind the rear face). The opening is the front face
+//! centre (`Geometry::anchor_opening`), the knob the left side centre
+//! (`Geometry::knob_left`), the hole the mirror point on the right side.
+//!
+//! # Anchor life cycle
+//!
+//! 1. *Free*: the head collides with other robots like a solid point.
+//! 2. *Inserting*: the head reached another robot's front face with
+//!    |lateral offset| ≤ `anchor_align_tolerance` (3.5 mm) and the robots are pushed
+//!    together: the head may enter, guided laterally into the opening.
+//! 3. *Coupled*: once fully in (the anchor robot's rear face at the front face), the head
+//!    is pinned in the opening's slits; relative yaw is limited to ±`anchor_yaw_range`
+//!    and the anchor slides in its holder by up to `anchor_travel`. Both legs sit in the
+//!    slits: pulling straight only takes up the 5 mm travel and drags the other robot.
+//! 4. A relative yaw beyond [`LEG_RELEASE_FRACTION`] of the range pops the leg on that
+//!    side (THESIS 5.4.2: "one leg within the first second"); with both legs out, a pull
+//!    to full travel releases the anchor (*Releasing* until the head is clear). Pushing
+//!    back in straight (zero travel, small yaw) re-seats popped legs.
+//!
+//! Knobs couple when the knob of one robot is within `knob_align_tolerance` (1 mm) of
+//! the other's hole along the side, the headings agree within [`KNOB_YAW_TOLERANCE`]
+//! and the sides touch; they are rigid afterwards (the two robots keep their relative
+//! pose). A knob pair holds more than robots can pull (`knob_hold_force`), so it is
+//! released only by [`Mechanics::detach`] (a person pulling it apart).
+
+use crate::math::{cross, dot, norm, sub, wrap, Pose, V2};
+use puzzlebot_params::{coupling::Coupling, geometry::Geometry};
+
+/// Fraction of the anchor yaw range beyond which a leg pops out of its slit.
+pub const LEG_RELEASE_FRACTION: f64 = 0.7;
+/// Heading agreement needed for knobs to slide in (rad): a 1 mm fit over 25 mm.
+pub const KNOB_YAW_TOLERANCE: f64 = 0.04;
+/// Relative yaw at which an anchor can still start entering an opening (rad).
+pub const ANCHOR_ENTRY_YAW: f64 = 0.35;
+/// Projection iterations per step.
+pub const ITERATIONS: usize = 4;
+
+/// Which coupling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum LinkKind {
+    /// Soft anchor of robot `a` in the front opening of robot `b`.
+    Anchor,
+    /// Left knob of robot `a` in the right hole of robot `b`.
+    Knob,
+}
+
+/// Progress of a coupling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum LinkState {
+    /// Anchor head is entering the opening.
+    Inserting,
+    /// Coupled.
+    Coupled,
+    /// Anchor released; the head is still inside the other body.
+    Releasing,
+}
+
+/// A coupling between two robots (indices into the world's robot list).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Link {
+    /// Kind.
+    pub kind: LinkKind,
+    /// Robot carrying the anchor / knob.
+    pub a: usize,
+    /// Robot carrying the opening / hole.
+    pub b: usize,
+    /// State.
+    pub state: LinkState,
+    /// Anchor legs seated (left, right).
+    pub legs: [bool; 2],
+}
+
+/// What happened to a coupling in one step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LinkEvent {
+    /// A coupling closed.
+    Coupled(LinkKind, usize, usize),
+    /// A coupling opened.
+    Decoupled(LinkKind, usize, usize),
+}
+
+/// One body as the mechanics sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Body {
+    /// Pose.
+    pub pose: Pose,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Yaw inertia (kg·m²).
+    pub inertia: f64,
+    /// Takes part in contacts (false: fallen or switched off the table).
+    pub active: bool,
+}
+
+/// Geometry numbers the mechanics needs (f64).
+#[derive(Debug, Clone, Copy)]
+pub struct Shape {
+    half: V2,
+    head: V2,
+    opening: V2,
+    knob: V2,
+    /// Depth the head sits inside the other body when fully in (m).
+    depth: f64,
+    radius: f64,
+}
+
+impl Shape {
+    /// From the shared geometry.
+    pub fn new(g: &Geometry) -> Shape {
+        let half = [f64::from(g.length) * 0.5, f64::from(g.width) * 0.5];
+        let head = [f64::from(g.anchor_head[0]), f64::from(g.anchor_head[1])];
+        let opening = [f64::from(g.anchor_opening[0]), f64::from(g.anchor_opening[1])];
+        let knob = [f64::from(g.knob_left[0]), f64::from(g.knob_left[1])];
+        let depth = (-head[0] - half[0]).max(0.0);
+        Shape {
+            half,
+            head,
+            opening,
+            knob,
+            depth,
+            radius: norm(half).max(norm(head)),
+        }
+    }
+
+    /// Where the head sits in the opening robot's frame when fully in, zero travel.
+    fn pin(&self) -> V2 {
+        [self.opening[0] - self.depth, self.opening[1]]
+    }
+}
+
+/// Contacts and couplings of a fleet.
+#[derive(Debug, Clone)]
+pub struct Mechanics {
+    shape: Shape,
+    c: CouplingF,
+    links: Vec<Link>,
+    pairs: Vec<(usize, usize)>,
+    order: Vec<usize>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct CouplingF {
+    align: f64,
+    yaw: f64,
+    travel: f64,
+    knob: f64,
+}
+
+/// Apply a position-based correction `delta` (world) at world point `p` to body `b`, with
+/// weight λ already divided by the inverse masses.
+fn push_point(b: &mut Body, p: V2, impulse: V2) {
+    b.pose.x += impulse[0] / b.mass;
+    b.pose.y += impulse[1] / b.mass;
+    let r = sub(p, b.pose.pos());
+    b.pose.yaw += cross(r, impulse) / b.inertia;
+}
+
+/// Generalised inverse mass of body `b` for a correction along unit `n` at point `p`.
+fn inv_mass(b: &Body, p: V2, n: V2) -> f64 {
+    let r = sub(p, b.pose.pos());
+    let rn = cross(r, n);
+    1.0 / b.mass + rn * rn / b.inertia
+}
+
+/// Move points `pa` (on a) and `pb` (on b) so that `pb − pa` changes by `-c·n`
+/// (c > 0 means they are `c` too far along n). Rotation included.
+fn solve_point(ba: &mut Body, bb: &mut Body, pa: V2, pb: V2, n: V2, c: f64, rotate: bool) {
+    let (wa, wb) = if rotate {
+        (inv_mass(ba, pa, n), inv_mass(bb, pb, n))
+    } else {
+        (1.0 / ba.mass, 1.0 / bb.mass)
+    };
+    let lambda = c / (wa + wb);
+    let imp = [n[0] * lambda, n[1] * lambda];
+    if rotate {
+        push_point(ba, pa, imp);
+        push_point(bb, pb, [-imp[0], -imp[1]]);
+    } else {
+        ba.pose.x += imp[0] / ba.mass;
+        ba.pose.y += imp[1] / ba.mass;
+        bb.pose.x -= imp[0] / bb.mass;
+        bb.pose.y -= imp[1] / bb.mass;
+    }
+}
+
+/// Separating-axis test of two rectangles: (normal from a to b, penetration) if they overlap.
+fn rect_overlap(pa: &Pose, pb: &Pose, half: V2) -> Option<(V2, f64)> {
+    let axes = [
+        pa.rotate([1.0, 0.0]),
+        pa.rotate([0.0, 1.0]),
+        pb.rotate([1.0, 0.0]),
+        pb.rotate([0.0, 1.0]),
+    ];
+    let d = sub(pb.pos(), pa.pos());
+    let ua = [axes[0], axes[1]];
+    let ub = [axes[2], axes[3]];
+    let mut best: Option<(V2, f64)> = None;
+    for ax in axes {
+        let ra = half[0] * dot(ua[0], ax).abs() + half[1] * dot(ua[1], ax).abs();
+        let rb = half[0] * dot(ub[0], ax).abs() + half[1] * dot(ub[1], ax).abs();
+        let dist = dot(d, ax);
+        let pen = ra + rb - dist.abs();
+        if pen <= 0.0 {
+            return None;
+        }
+        let n = if dist >= 0.0 { ax } else { [-ax[0], -ax[1]] };
+        if best.is_none_or(|(_, p)| pen < p) {
+            best = Some((n, pen));
+        }
+    }
+    best
+}
+
+impl Mechanics {
+    /// Mechanics for robots of geometry `g` with couplings `c`.
+    pub fn new(g: &Geometry, c: &Coupling) -> Mechanics {
+        Mechanics {
+            shape: Shape::new(g),
+            c: CouplingF {
+                align: f64::from(c.anchor_align_tolerance),
+                yaw: f64::from(c.anchor_yaw_range),
+                travel: f64::from(c.anchor_travel),
+                knob: f64::from(c.knob_align_tolerance),
+            },
+            links: Vec::new(),
+            pairs: Vec::new(),
+            order: Vec::new(),
+        }
+    }
+
+    /// Current couplings (every state).
+    pub fn links(&self) -> &[Link] {
+        &self.links
+    }
+
+    /// Pairs (a, b, kind) that are coupled now.
+    pub fn coupled(&self) -> impl Iterator<Item = (usize, usize, LinkKind)> + '_ {
+        self.links
+            .iter()
+            .filter(|l| l.state == LinkState::Coupled)
+            .map(|l| (l.a, l.b, l.kind))
+    }
+
+    /// Start with robots `a` and `b` already coupled (scenario setup). The poses should
+    /// already be in the coupled relation; the constraints pull them into it otherwise.
+    pub fn attach(&mut self, kind: LinkKind, a: usize, b: usize) {
+        self.links.retain(|l| !(l.a == a && l.b == b && l.kind == kind));
+        self.links.push(Link {
+            kind,
+            a,
+            b,
+            state: LinkState::Coupled,
+            legs: [true, true],
+        });
+    }
+
+    /// Remove every coupling that involves robot `i` (fallen, switched off and lifted).
+    pub fn detach_robot(&mut self, i: usize, events: &mut Vec<LinkEvent>) {
+        self.links.retain(|l| {
+            let hit = l.a == i || l.b == i;
+            if hit && l.state == LinkState::Coupled {
+                events.push(LinkEvent::Decoupled(l.kind, l.a, l.b));
+            }
+            !hit
+        });
+    }
+
+    /// Remove the coupling of `kind` between `a` and `b` (by hand). True when one existed.
+    pub fn detach(&mut self, kind: LinkKind, a: usize, b: usize) -> bool {
+        let n = self.links.len();
+        self.links
+            .retain(|l| !(l.kind == kind && l.a == a && l.b == b));
+        self.links.len() != n
+    }
+
+    fn linked(&self, i: usize, j: usize) -> bool {
+        self.links
+            .iter()
+            .any(|l| (l.a == i && l.b == j) || (l.a == j && l.b == i))
+    }
+
+    fn anchor_busy(&self, a: usize) -> bool {
+        self.links
+            .iter()
+            .any(|l| l.kind == LinkKind::Anchor && l.a == a)
+    }
+
+    fn opening_busy(&self, b: usize) -> bool {
+        self.links
+            .iter()
+            .any(|l| l.kind == LinkKind::Anchor && l.b == b)
+    }
+
+    /// Candidate pairs by a sweep along x (bodies closer than two bounding radii).
+    fn broad_phase(&mut self, bodies: &[Body]) {
+        self.pairs.clear();
+        self.order.clear();
+        self.order.extend((0..bodies.len()).filter(|&i| bodies[i].active));
+        self.order
+            .sort_by(|&i, &j| bodies[i].pose.x.total_cmp(&bodies[j].pose.x).then(i.cmp(&j)));
+        let reach = 2.0 * self.shape.radius + 0.002;
+        for (k, &i) in self.order.iter().enumerate() {
+            for &j in &self.order[k + 1..] {
+                if bodies[j].pose.x - bodies[i].pose.x > reach {
+                    break;
+                }
+                if (bodies[j].pose.y - bodies[i].pose.y).abs() <= reach {
+                    self.pairs.push((i.min(j), i.max(j)));
+                }
+            }
+        }
+        self.pairs.sort_unstable();
+    }
+
+    /// Head of `a` in `b`'s frame.
+    fn head_in(&self, a: &Body, b: &Body) -> V2 {
+        b.pose.inverse_apply(a.pose.apply(self.shape.head))
+    }
+
+    /// Detect new couplings, enforce contacts and couplings, update link states.
+    /// `bodies` are moved in place; returns what changed.
+    pub fn resolve(&mut self, bodies: &mut [Body], events: &mut Vec<LinkEvent>) {
+        self.broad_phase(bodies);
+        self.detect(bodies, events);
+        for _ in 0..ITERATIONS {
+            self.project_contacts(bodies);
+            self.project_links(bodies);
+        }
+        self.update_links(bodies, events);
+    }
+
+    fn detect(&mut self, bodies: &[Body], events: &mut Vec<LinkEvent>) {
+        let sh = self.shape;
+        let pairs = std::mem::take(&mut self.pairs);
+        for &(i, j) in &pairs {
+            for (a, b) in [(i, j), (j, i)] {
+                if self.linked(a, b) {
+                    continue;
+                }
+                let (ba, bb) = (&bodies[a], &bodies[b]);
+                let phi = wrap(ba.pose.yaw - bb.pose.yaw);
+                // Anchor of a into the opening of b.
+                if !self.anchor_busy(a) && !self.opening_busy(b) && phi.abs() <= ANCHOR_ENTRY_YAW
+                {
+                    let h = self.head_in(ba, bb);
+                    let face = sh.opening[0];
+                    if h[0] <= face + 1e-4
+                        && h[0] >= face - sh.depth
+                        && (h[1] - sh.opening[1]).abs() <= self.c.align
+                    {
+                        self.links.push(Link {
+                            kind: LinkKind::Anchor,
+                            a,
+                            b,
+                            state: LinkState::Inserting,
+                            legs: [true, true],
+                        });
+                        continue;
+                    }
+                }
+                // Left knob of a into the right hole of b (b on a's left).
+                if phi.abs() <= KNOB_YAW_TOLERANCE {
+                    let k = bb.pose.inverse_apply(ba.pose.apply(sh.knob));
+                    let hole = [sh.knob[0], -sh.knob[1]];
+                    let d = sub(k, hole);
+                    if d[0].abs() <= self.c.knob && d[1].abs() <= 0.0015 {
+                        self.links.push(Link {
+                            kind: LinkKind::Knob,
+                            a,
+                            b,
+                            state: LinkState::Coupled,
+                            legs: [true, true],
+                        });
+                        events.push(LinkEvent::Coupled(LinkKind::Knob, a, b));
+                    }
+                }
+            }
+        }
+        self.pairs = pairs;
+    }
+
+    fn link_between(&self, i: usize, j: usize) -> Option<Link> {
+        self.links
+            .iter()
+            .copied()
+            .find(|l| (l.a == i && l.b == j) || (l.a == j && l.b == i))
+    }
+
+    fn project_contacts(&self, bodies: &mut [Body]) {
+        let sh = self.shape;
+        for &(i, j) in &self.pairs {
+            let link = self.link_between(i, j);
+            let (lo, hi) = bodies.split_at_mut(j);
+            let (bi, bj) = (&mut lo[i], &mut hi[0]);
+            if !bi.active || !bj.active {
+                continue;
+            }
+            // Body against body, except inside an anchor coupling (the pin governs).
+            let skip_bodies = matches!(
+                link,
+                Some(Link { kind: LinkKind::Anchor, state: LinkState::Coupled, .. })
+                    | Some(Link { kind: LinkKind::Knob, .. })
+            );
+            if !skip_bodies {
+                if let Some((n, pen)) = rect_overlap(&bi.pose, &bj.pose, sh.half) {
+                    solve_point(bi, bj, bi.pose.pos(), bj.pose.pos(), n, -pen, false);
+                }
+            }
+            // Anchor heads against the other body unless inserting / coupled / releasing.
+            for swap in [false, true] {
+                let (ba, bb) = if swap { (&mut *bj, &mut *bi) } else { (&mut *bi, &mut *bj) };
+                let (ia, ib) = if swap { (j, i) } else { (i, j) };
+                if link.is_some_and(|l| l.kind == LinkKind::Anchor && l.a == ia && l.b == ib) {
+                    continue;
+                }
+                let hw = ba.pose.apply(sh.head);
+                let h = bb.pose.inverse_apply(hw);
+                let px = sh.half[0] - h[0].abs();
+                let py = sh.half[1] - h[1].abs();
+                if px > 0.0 && py > 0.0 {
+                    // Push the head out through the nearest face of bb.
+                    let local = if px < py {
+                        [h[0].signum(), 0.0]
+                    } else {
+                        [0.0, h[1].signum()]
+                    };
+                    let n = bb.pose.rotate(local);
+                    let pen = px.min(py);
+                    solve_point(bb, ba, bb.pose.pos(), hw, n, -pen, false);
+                }
+            }
+        }
+    }
+
+    fn project_links(&self, bodies: &mut [Body]) {
+        let sh = self.shape;
+        for l in &self.links {
+            let (a, b) = (l.a, l.b);
+            if a == b || !bodies[a].active || !bodies[b].active {
+                continue;
+            }
+            let (ba, bb) = if a < b {
+                let (lo, hi) = bodies.split_at_mut(b);
+                (&mut lo[a], &mut hi[0])
+            } else {
+                let (lo, hi) = bodies.split_at_mut(a);
+                (&mut hi[0], &mut lo[b])
+            };
+            match (l.kind, l.state) {
+                (LinkKind::Knob, _) => {
+                    // Rigid: b sits at a ∘ (0, 2·knob_y, 0).
+                    let offset = [0.0, 2.0 * sh.knob[1]];
+                    let phi = wrap(ba.pose.yaw - bb.pose.yaw);
+                    let itot = 1.0 / ba.inertia + 1.0 / bb.inertia;
+                    ba.pose.yaw -= phi / ba.inertia / itot;
+                    bb.pose.yaw += phi / bb.inertia / itot;
+                    let target = ba.pose.apply(offset);
+                    let err = sub(bb.pose.pos(), target);
+                    let e = norm(err);
+                    if e > 1e-12 {
+                        let n = [err[0] / e, err[1] / e];
+                        solve_point(bb, ba, bb.pose.pos(), target, n, -e, false);
+                    }
+                }
+                (LinkKind::Anchor, LinkState::Inserting) => {
+                    // Guided into the opening: lateral offset clamped, yaw limited.
+                    let h = self.head_in(ba, bb);
+                    let dy = h[1] - sh.opening[1];
+                    let lim = self.c.align.min(0.0005_f64.max(dy.abs() * 0.5));
+                    if dy.abs() > lim {
+                        let c = dy - lim * dy.signum();
+                        let n = bb.pose.rotate([0.0, 1.0]);
+                        let hw = ba.pose.apply(sh.head);
+                        solve_point(ba, bb, hw, bb.pose.pos(), n, -c, false);
+                    }
+                    limit_yaw(ba, bb, self.c.yaw);
+                }
+                (LinkKind::Anchor, LinkState::Coupled) => {
+                    limit_yaw(ba, bb, self.c.yaw);
+                    // The pin (slits of b) must lie on a's anchor axis within the travel.
+                    let pin_w = bb.pose.apply(sh.pin());
+                    let q = ba.pose.inverse_apply(pin_w);
+                    let x_hi = sh.head[0];
+                    let x_lo = sh.head[0] - self.c.travel;
+                    let cx = if q[0] > x_hi {
+                        q[0] - x_hi
+                    } else if q[0] < x_lo {
+                        q[0] - x_lo
+                    } else {
+                        0.0
+                    };
+                    let cy = q[1] - sh.head[1];
+                    for (local, c) in [([1.0, 0.0], cx), ([0.0, 1.0], cy)] {
+                        if c.abs() > 1e-9 {
+                            let n = ba.pose.rotate(local);
+                            let pa = ba.pose.apply([q[0] - c * local[0], q[1] - c * local[1]]);
+                            solve_point(ba, bb, pa, pin_w, n, c, true);
+                        }
+                    }
+                }
+                (LinkKind::Anchor, LinkState::Releasing) => {}
+            }
+        }
+    }
+
+    fn update_links(&mut self, bodies: &[Body], events: &mut Vec<LinkEvent>) {
+        let sh = self.shape;
+        let c = self.c;
+        self.links.retain_mut(|l| {
+            let (ba, bb) = (&bodies[l.a], &bodies[l.b]);
+            if l.kind != LinkKind::Anchor {
+                return true;
+            }
+            let h = bb.pose.inverse_apply(ba.pose.apply(sh.head));
+            let phi = wrap(ba.pose.yaw - bb.pose.yaw);
+            match l.state {
+                LinkState::Inserting => {
+                    if h[0] > sh.opening[0] + 5e-4 {
+                        return false; // backed out before it was in
+                    }
+                    if h[0] <= sh.pin()[0] + 1e-3 {
+                        l.state = LinkState::Coupled;
+                        l.legs = [true, true];
+                        events.push(LinkEvent::Coupled(LinkKind::Anchor, l.a, l.b));
+                    }
+                    true
+                }
+                LinkState::Coupled => {
+                    let thr = LEG_RELEASE_FRACTION * c.yaw;
+                    if phi > thr {
+                        l.legs[0] = false;
+                    } else if phi < -thr {
+                        l.legs[1] = false;
+                    }
+                    let q = ba.pose.inverse_apply(bb.pose.apply(sh.pin()));
+                    let ext = sh.head[0] - q[0];
+                    if ext < 0.5e-3 && phi.abs() < 0.1 {
+                        l.legs = [true, true]; // pushed straight back in: re-seated
+                    }
+                    if !l.legs[0] && !l.legs[1] && ext >= c.travel - 0.5e-3 {
+                        l.state = LinkState::Releasing;
+                        events.push(LinkEvent::Decoupled(LinkKind::Anchor, l.a, l.b));
+                    }
+                    true
+                }
+                LinkState::Releasing => {
+                    // Keep ignoring head contact until the head is clear of b.
+                    h[0].abs() < sh.half[0] + 1e-3 && h[1].abs() < sh.half[1] + 1e-3
+                }
+            }
+        });
+    }
+}
+
+fn limit_yaw(ba: &mut Body, bb: &mut Body, range: f64) {
+    let phi = wrap(ba.pose.yaw - bb.pose.yaw);
+    if phi.abs() > range {
+        let c = phi - range * phi.signum();
+        let itot = 1.0 / ba.inertia + 1.0 / bb.inertia;
+        ba.pose.yaw -= c / ba.inertia / itot;
+        bb.pose.yaw += c / bb.inertia / itot;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn body(x: f64, y: f64, yaw: f64) -> Body {
+        Body {
+            pose: Pose::new(x, y, yaw),
+            mass: 0.1,
+            inertia: 4.5e-5,
+            active: true,
+        }
+    }
+
+    #[test]
+    fn overlapping_robots_are_pushed_apart() {
+        let mut m = Mechanics::new(&Geometry::default(), &Coupling::default());
+        let mut b = vec![body(0.0, 0.0, 0.0), body(0.0, 0.04, 0.0)];
+        let mut ev = Vec::new();
+        m.resolve(&mut b, &mut ev);
+        assert!(b[1].pose.y - b[0].pose.y >= 0.0499, "{:?}", b);
+    }
+}

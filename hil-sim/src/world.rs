@@ -1,0 +1,791 @@
+//! The lockstep world: every robot's plant, its firmware (`puzzlebot_firmware_core::Robot`,
+//! unchanged), contacts and couplings, terrain, the virtual radio and motion capture,
+//! advanced in fixed steps of simulated time. No sockets and no wall clock: the same
+//! scenario and seed give bit-identical runs.
+//!
+//! Per step (1 ms by default): drive plant of every robot → encoder edges into the
+//! firmware's decoders with their exact timestamps → body poses → contacts and
+//! couplings → terrain support → datagrams due from the radio into the firmware → at
+//! each firmware period (50 Hz) `Robot::tick` with the sensors, then `poll_transmit`
+//! into the radio → motion-capture frames at their rate.
+
+use crate::drive::{self, Bridge, DriveModel, DriveState};
+use crate::encoder::QuadEncoder;
+use crate::math::{add, in_convex_hull, Pose, V2};
+use crate::mechanics::{Body, Link, LinkEvent, LinkKind, Mechanics};
+use crate::mocap::{Mocap, MocapFrame};
+use crate::radio::{Channel, Impairments};
+use crate::rng::Rng;
+use crate::scenario::Scenario;
+use puzzlebot_firmware_core::{
+    DriveMode, Encoder, HBridge, MotorOutputs, NonceSource, Robot, Sensors, Status,
+};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{RobotKind, RobotParams};
+use puzzlebot_protocol::{FirmwareVersion, FleetKey, Nonce, RobotId, MAX_DATAGRAM};
+use std::collections::VecDeque;
+
+/// Firmware version the simulated robots announce.
+pub const SIM_FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
+    major: 0,
+    minor: 1,
+    patch: 0,
+};
+
+/// Default physics step (µs): 1 kHz.
+pub const DEFAULT_STEP_US: u64 = 1000;
+
+/// A robot's support drops by more than this: it is reported as a drop (m).
+pub const DROP_REPORT: f64 = 0.005;
+
+/// Most motion-capture frames kept for [`World::take_mocap`].
+pub const MOCAP_BACKLOG: usize = 256;
+
+/// Boot nonces from the robot's own seeded stream (the ESP32-C3 uses its hardware RNG).
+#[derive(Debug, Clone)]
+pub struct SimNonces(Rng);
+
+impl NonceSource for SimNonces {
+    fn fresh_nonce(&mut self) -> Nonce {
+        self.0.bytes16()
+    }
+}
+
+/// Something that happened in the world.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EventKind {
+    /// Two robots coupled (anchor: `a`'s anchor in `b`'s opening; knob: `a`'s knob in `b`).
+    Coupled {
+        /// Coupling kind.
+        kind: LinkKind,
+        /// Robot id with the anchor / knob.
+        a: RobotId,
+        /// Robot id with the opening / hole.
+        b: RobotId,
+    },
+    /// A coupling opened.
+    Decoupled {
+        /// Coupling kind.
+        kind: LinkKind,
+        /// Robot id with the anchor / knob.
+        a: RobotId,
+        /// Robot id with the opening / hole.
+        b: RobotId,
+    },
+    /// Failure: the robot lost its support (over a gap, not held by its assembly) and fell.
+    Fell {
+        /// Robot id.
+        id: RobotId,
+    },
+    /// The robot's support dropped to a lower platform (a step down).
+    Dropped {
+        /// Robot id.
+        id: RobotId,
+        /// Height fallen (m).
+        height: f64,
+    },
+    /// The robot stopped at a step too high to climb.
+    Blocked {
+        /// Robot id.
+        id: RobotId,
+    },
+    /// The robot was switched off.
+    Offline {
+        /// Robot id.
+        id: RobotId,
+    },
+    /// The robot booted (`boot` counts boots, 1 = first).
+    Booted {
+        /// Robot id.
+        id: RobotId,
+        /// Boot number.
+        boot: u32,
+    },
+}
+
+/// A timestamped event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimEvent {
+    /// Simulation time (µs).
+    pub t_us: u64,
+    /// What happened.
+    pub kind: EventKind,
+}
+
+/// Ground truth of one robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RobotTruth {
+    /// Robot id.
+    pub id: RobotId,
+    /// Kind.
+    pub kind: RobotKind,
+    /// Pose (m, rad).
+    pub pose: Pose,
+    /// Height of the body's support (m).
+    pub z: f64,
+    /// Forward speed (m/s).
+    pub v: f64,
+    /// Yaw rate (rad/s).
+    pub omega: f64,
+    /// Wheel speeds left, right (RPM).
+    pub wheel_rpm: [f64; 2],
+    /// Signed duties applied (per-mille; 0 for coast / brake).
+    pub duty: [i16; 2],
+    /// DRV8833 inputs applied, left and right.
+    pub bridge: [HBridge; 2],
+    /// Battery terminal voltage (V).
+    pub battery_v: f64,
+    /// Encoder edges counted by the plant (signed), left and right.
+    pub encoder_edges: [i64; 2],
+    /// Firmware running.
+    pub online: bool,
+    /// Fell off the terrain.
+    pub fallen: bool,
+    /// Firmware status (None when offline).
+    pub firmware: Option<Status>,
+}
+
+/// Ground truth of the whole world.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct GroundTruth {
+    /// Simulation time (µs).
+    pub time_us: u64,
+    /// Every robot.
+    pub robots: Vec<RobotTruth>,
+    /// Coupled pairs (a, b, kind) by robot id.
+    pub coupled: Vec<(RobotId, RobotId, LinkKind)>,
+    /// Every event so far.
+    pub events: Vec<SimEvent>,
+}
+
+impl GroundTruth {
+    /// The robot with `id`.
+    pub fn robot(&self, id: RobotId) -> Option<&RobotTruth> {
+        self.robots.iter().find(|r| r.id == id)
+    }
+
+    /// True when `a` and `b` are coupled (either way round, any kind).
+    pub fn are_coupled(&self, a: RobotId, b: RobotId) -> bool {
+        self.coupled
+            .iter()
+            .any(|&(x, y, _)| (x == a && y == b) || (x == b && y == a))
+    }
+}
+
+/// Why a world cannot be built.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    /// The scenario is invalid.
+    #[error("scenario: {0}")]
+    Scenario(String),
+    /// The firmware refused its parameters.
+    #[error("robot {id}: firmware parameters: {reason}")]
+    Firmware {
+        /// Robot id.
+        id: RobotId,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// One simulated robot.
+#[derive(Debug, Clone)]
+struct SimRobot {
+    id: RobotId,
+    kind: RobotKind,
+    params: RobotParams,
+    model: DriveModel,
+    drive: DriveState,
+    pose: Pose,
+    z: f64,
+    quad: [QuadEncoder; 2],
+    enc: [Encoder; 2],
+    fw: Option<Robot<SimNonces>>,
+    outputs: MotorOutputs,
+    nonces: Rng,
+    boots: u32,
+    down: Channel,
+    up: Channel,
+    impairments: Impairments,
+    fallen: bool,
+    next_tick_us: u64,
+    support_points: Vec<V2>,
+}
+
+/// The lockstep simulation (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct World {
+    time_us: u64,
+    step_us: u64,
+    key: FleetKey,
+    robots: Vec<SimRobot>,
+    mech: Mechanics,
+    bodies: Vec<Body>,
+    link_events: Vec<LinkEvent>,
+    terrain: Terrain,
+    flat: bool,
+    events: Vec<SimEvent>,
+    mocap: Mocap,
+    next_mocap_us: u64,
+    mocap_out: VecDeque<MocapFrame>,
+    outbox: Vec<(RobotId, Vec<u8>)>,
+    scratch: Vec<(u16, f64, f64, f64, f64)>,
+}
+
+fn support_points(p: &RobotParams) -> Vec<V2> {
+    let g = &p.geometry;
+    let half = f64::from(g.wheel_base) * 0.5;
+    if p.plant.four_wheels {
+        let d = f64::from(p.plant.wheel_axle_offset);
+        vec![[d, half], [d, -half], [-d, half], [-d, -half]]
+    } else {
+        let c = f64::from(p.plant.caster_offset);
+        vec![[0.0, half], [0.0, -half], [c, 0.0], [-c, 0.0]]
+    }
+}
+
+impl World {
+    /// Build the world of `scenario`; robots get keys derived from `key`.
+    pub fn new(scenario: &Scenario, key: &FleetKey) -> Result<World, WorldError> {
+        scenario.validate().map_err(WorldError::Scenario)?;
+        let geom = scenario.params.non_pilot.geometry;
+        let mut mech = Mechanics::new(&geom, &scenario.params.non_pilot.coupling);
+        let mut robots = Vec::with_capacity(scenario.robots.len());
+        for spec in &scenario.robots {
+            let params = scenario.params.robot(spec.kind).clone();
+            let model = DriveModel::new(spec.kind, &params.plant, &params.mass, &params.geometry);
+            let drive = DriveState::at_rest(&model, f64::from(params.plant.battery_initial_soc));
+            let tag = u64::from(spec.id) << 8;
+            let pose = Scenario::pose_of(spec);
+            let z = scenario
+                .terrain
+                .support_at([pose.x, pose.y])
+                .map_or(0.0, |s| s.0);
+            let edges = params.firmware.encoder_edges_per_rev;
+            let mut r = SimRobot {
+                id: spec.id,
+                kind: spec.kind,
+                support_points: support_points(&params),
+                params,
+                model,
+                drive,
+                pose,
+                z,
+                quad: [QuadEncoder::new(edges, 0.0), QuadEncoder::new(edges, 0.0)],
+                enc: [Encoder::new(), Encoder::new()],
+                fw: None,
+                outputs: MotorOutputs::COAST,
+                nonces: Rng::new(scenario.seed, tag | 1),
+                boots: 0,
+                down: Channel::new(Rng::new(scenario.seed, tag | 2)),
+                up: Channel::new(Rng::new(scenario.seed, tag | 3)),
+                impairments: spec.impairments.unwrap_or(scenario.impairments),
+                fallen: false,
+                next_tick_us: 0,
+            };
+            if !spec.offline {
+                boot(&mut r, key, 0).map_err(|reason| WorldError::Firmware { id: spec.id, reason })?;
+            }
+            robots.push(r);
+        }
+        let bodies = robots
+            .iter()
+            .map(|r| Body {
+                pose: r.pose,
+                mass: r.model.m,
+                inertia: r.model.iz,
+                active: true,
+            })
+            .collect();
+        for c in &scenario.couplings {
+            let a = robots.iter().position(|r| r.id == c.a);
+            let b = robots.iter().position(|r| r.id == c.b);
+            if let (Some(a), Some(b)) = (a, b) {
+                mech.attach(c.kind, a, b);
+            }
+        }
+        let mut events = Vec::new();
+        for r in &robots {
+            if r.fw.is_some() {
+                events.push(SimEvent {
+                    t_us: 0,
+                    kind: EventKind::Booted { id: r.id, boot: 1 },
+                });
+            }
+        }
+        Ok(World {
+            time_us: 0,
+            step_us: DEFAULT_STEP_US,
+            key: key.clone(),
+            robots,
+            mech,
+            bodies,
+            link_events: Vec::new(),
+            flat: scenario.terrain.platforms.is_empty(),
+            terrain: scenario.terrain.clone(),
+            events,
+            mocap: Mocap::new(scenario.mocap, Rng::new(scenario.seed, 0xC0FFEE)),
+            next_mocap_us: 0,
+            mocap_out: VecDeque::new(),
+            outbox: Vec::new(),
+            scratch: Vec::new(),
+        })
+    }
+
+    /// Simulation time (µs).
+    pub fn time_us(&self) -> u64 {
+        self.time_us
+    }
+
+    /// Physics step (µs).
+    pub fn step_us(&self) -> u64 {
+        self.step_us
+    }
+
+    /// Robot ids in scenario order.
+    pub fn robot_ids(&self) -> Vec<RobotId> {
+        self.robots.iter().map(|r| r.id).collect()
+    }
+
+    fn index(&self, id: RobotId) -> Option<usize> {
+        self.robots.iter().position(|r| r.id == id)
+    }
+
+    /// Advance one physics step.
+    pub fn step(&mut self) {
+        let dt = self.step_us as f64 * 1e-6;
+        let t0 = self.time_us;
+        let t1 = t0 + self.step_us;
+        // 1. Plants and encoders.
+        for (r, body) in self.robots.iter_mut().zip(self.bodies.iter_mut()) {
+            let cmd = [
+                Bridge {
+                    in1: r.outputs.left.in1,
+                    in2: r.outputs.left.in2,
+                },
+                Bridge {
+                    in1: r.outputs.right.in1,
+                    in2: r.outputs.right.in2,
+                },
+            ];
+            let a0 = r.drive.angle;
+            drive::step(&r.model, &mut r.drive, cmd, dt);
+            for s in 0..2 {
+                let enc = &mut r.enc[s];
+                let online = r.fw.is_some();
+                r.quad[s].advance(a0[s], r.drive.angle[s], t0, t1, |e| {
+                    if online {
+                        enc.on_edge(e.a, e.b, e.t_us);
+                    }
+                });
+            }
+            if r.fallen {
+                continue;
+            }
+            let d = &r.drive;
+            let (s, c) = r.pose.yaw.sin_cos();
+            r.pose.x += (c * d.v - s * d.vy) * dt;
+            r.pose.y += (s * d.v + c * d.vy) * dt;
+            r.pose.yaw = crate::math::wrap(r.pose.yaw + d.omega * dt);
+            body.pose = r.pose;
+        }
+        // 2. Contacts and couplings, with the projection fed back into velocities.
+        self.link_events.clear();
+        self.mech.resolve(&mut self.bodies, &mut self.link_events);
+        for (r, body) in self.robots.iter_mut().zip(self.bodies.iter()) {
+            if r.fallen {
+                continue;
+            }
+            let dx = body.pose.x - r.pose.x;
+            let dy = body.pose.y - r.pose.y;
+            let dyaw = crate::math::wrap(body.pose.yaw - r.pose.yaw);
+            if dx != 0.0 || dy != 0.0 || dyaw != 0.0 {
+                let (s, c) = body.pose.yaw.sin_cos();
+                r.drive.v += (c * dx + s * dy) / dt;
+                r.drive.vy += (-s * dx + c * dy) / dt;
+                r.drive.omega += dyaw / dt;
+                r.pose = body.pose;
+            }
+        }
+        for e in std::mem::take(&mut self.link_events) {
+            let (kind, a, b, coupled) = match e {
+                LinkEvent::Coupled(k, a, b) => (k, a, b, true),
+                LinkEvent::Decoupled(k, a, b) => (k, a, b, false),
+            };
+            let (a, b) = (self.robots[a].id, self.robots[b].id);
+            let kind = if coupled {
+                EventKind::Coupled { kind, a, b }
+            } else {
+                EventKind::Decoupled { kind, a, b }
+            };
+            self.events.push(SimEvent { t_us: t1, kind });
+        }
+        // 3. Terrain.
+        if !self.flat {
+            self.terrain_step(t1);
+        }
+        self.time_us = t1;
+        // 4. Radio in, firmware ticks, radio out.
+        let mut buf = [0u8; MAX_DATAGRAM];
+        for r in &mut self.robots {
+            if let Some(fw) = r.fw.as_mut() {
+                r.down.due(t1, |frame| {
+                    // Rejections are counted by the firmware itself (LinkStats).
+                    let _ = fw.on_datagram(frame, t1);
+                });
+                if t1 >= r.next_tick_us {
+                    let sensors = Sensors {
+                        battery_mv: (r.drive.battery_v * 1000.0).clamp(0.0, 65_535.0) as u16,
+                        rssi_dbm: -45,
+                        encoders: [r.enc[0].snapshot(), r.enc[1].snapshot()],
+                    };
+                    r.outputs = fw.tick(t1, &sensors);
+                    r.next_tick_us = t1 + fw.period_us();
+                    while let Some(n) = fw.poll_transmit(t1, &mut buf) {
+                        r.up.send(t1, &buf[..n], &r.impairments);
+                    }
+                }
+            } else {
+                r.down.clear();
+            }
+            let id = r.id;
+            let outbox = &mut self.outbox;
+            r.up.due(t1, |frame| outbox.push((id, frame.to_vec())));
+        }
+        // 5. Motion capture.
+        if t1 >= self.next_mocap_us {
+            self.scratch.clear();
+            for r in &self.robots {
+                self.scratch
+                    .push((r.id, r.pose.x, r.pose.y, r.z, r.pose.yaw));
+            }
+            let f = self.mocap.capture(t1, &self.scratch);
+            if self.mocap_out.len() >= MOCAP_BACKLOG {
+                self.mocap_out.pop_front();
+            }
+            self.mocap_out.push_back(f);
+            self.next_mocap_us = t1 + self.mocap.period_us();
+        }
+    }
+
+    /// Advance by `us` microseconds (whole steps).
+    pub fn run_for(&mut self, us: u64) {
+        let end = self.time_us + us;
+        while self.time_us < end {
+            self.step();
+        }
+    }
+
+    fn terrain_step(&mut self, t_us: u64) {
+        // Coupled groups (union–find over coupled links).
+        let n = self.robots.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for (a, b, _) in self.mech.coupled() {
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            parent[ra] = rb;
+        }
+        let mut blocked = Vec::new();
+        for i in 0..n {
+            let r = &mut self.robots[i];
+            if r.fallen {
+                continue;
+            }
+            let Some((h, _)) = self.terrain.support_at(r.pose.pos()) else {
+                continue; // over a gap: decided per group below
+            };
+            let max_climb = f64::from(r.params.plant.max_climb);
+            if h > r.z + max_climb {
+                blocked.push(i);
+            } else if h < r.z - DROP_REPORT {
+                self.events.push(SimEvent {
+                    t_us,
+                    kind: EventKind::Dropped {
+                        id: r.id,
+                        height: r.z - h,
+                    },
+                });
+                r.z = h;
+            } else {
+                r.z = h;
+            }
+        }
+        for i in blocked {
+            // Push back to where the robot came from: undo this step's motion.
+            let r = &mut self.robots[i];
+            let dt = self.step_us as f64 * 1e-6;
+            let (s, c) = r.pose.yaw.sin_cos();
+            r.pose.x -= (c * r.drive.v - s * r.drive.vy) * dt;
+            r.pose.y -= (s * r.drive.v + c * r.drive.vy) * dt;
+            r.drive.v = 0.0;
+            r.drive.vy = 0.0;
+            self.bodies[i].pose = r.pose;
+            if !self
+                .events
+                .iter()
+                .rev()
+                .take(8)
+                .any(|e| e.kind == EventKind::Blocked { id: r.id })
+            {
+                self.events.push(SimEvent {
+                    t_us,
+                    kind: EventKind::Blocked { id: r.id },
+                });
+            }
+        }
+        // Groups with a member over a gap: does the group's support polygon hold it?
+        let mut roots: Vec<usize> = Vec::new();
+        for i in 0..n {
+            let r = &self.robots[i];
+            if !r.fallen && self.terrain.support_at(r.pose.pos()).is_none() {
+                let root = find(&mut parent, i);
+                if !roots.contains(&root) {
+                    roots.push(root);
+                }
+            }
+        }
+        for root in roots {
+            let members: Vec<usize> = (0..n)
+                .filter(|&i| !self.robots[i].fallen && find(&mut parent, i) == root)
+                .collect();
+            let mut pts = Vec::new();
+            let mut com = [0.0, 0.0];
+            let mut mass = 0.0;
+            for &i in &members {
+                let r = &self.robots[i];
+                for &p in &r.support_points {
+                    let w = r.pose.apply(p);
+                    if self.terrain.support_at(w).is_some() {
+                        pts.push(w);
+                    }
+                }
+                com = add(com, [r.pose.x * r.model.m, r.pose.y * r.model.m]);
+                mass += r.model.m;
+            }
+            let com = [com[0] / mass, com[1] / mass];
+            if !in_convex_hull(&pts, com) {
+                for &i in &members {
+                    self.fall(i, t_us);
+                }
+            }
+        }
+    }
+
+    fn fall(&mut self, i: usize, t_us: u64) {
+        let r = &mut self.robots[i];
+        r.fallen = true;
+        r.z -= 0.1;
+        r.drive.v = 0.0;
+        r.drive.vy = 0.0;
+        r.drive.omega = 0.0;
+        self.bodies[i].active = false;
+        self.events.push(SimEvent {
+            t_us,
+            kind: EventKind::Fell { id: r.id },
+        });
+        let mut ev = Vec::new();
+        self.mech.detach_robot(i, &mut ev);
+        for e in ev {
+            if let LinkEvent::Decoupled(kind, a, b) = e {
+                let (a, b) = (self.robots[a].id, self.robots[b].id);
+                self.events.push(SimEvent {
+                    t_us,
+                    kind: EventKind::Decoupled { kind, a, b },
+                });
+            }
+        }
+    }
+
+    /// A datagram from the host to robot `id` enters the radio now (impairments apply).
+    /// Unknown ids are ignored (a real radio would not deliver them either).
+    pub fn send_to_robot(&mut self, id: RobotId, frame: &[u8]) {
+        let now = self.time_us;
+        if let Some(i) = self.index(id) {
+            let r = &mut self.robots[i];
+            if r.fw.is_some() {
+                let imp = r.impairments;
+                r.down.send(now, frame, &imp);
+            }
+        }
+    }
+
+    /// Hand a datagram straight to robot `id`'s firmware, bypassing the radio (tests of
+    /// the firmware's own rejection). Returns what the firmware said, or `None` when the
+    /// robot is unknown or offline.
+    pub fn inject(
+        &mut self,
+        id: RobotId,
+        frame: &[u8],
+    ) -> Option<Result<(), puzzlebot_protocol::Rejection>> {
+        let now = self.time_us;
+        let i = self.index(id)?;
+        self.robots[i].fw.as_mut().map(|fw| fw.on_datagram(frame, now))
+    }
+
+    /// Datagrams robots sent that have arrived at the host side, in arrival order.
+    pub fn take_from_robots(&mut self) -> Vec<(RobotId, Vec<u8>)> {
+        std::mem::take(&mut self.outbox)
+    }
+
+    /// Motion-capture frames captured since the last call (at most [`MOCAP_BACKLOG`]).
+    pub fn take_mocap(&mut self) -> Vec<MocapFrame> {
+        self.mocap_out.drain(..).collect()
+    }
+
+    /// Switch robot `id` off (`false`: firmware stops, motors coast, radio silent) or on
+    /// (`true`: a fresh boot with a fresh nonce). Returns false for an unknown id.
+    pub fn set_online(&mut self, id: RobotId, online: bool) -> bool {
+        let Some(i) = self.index(id) else {
+            return false;
+        };
+        let now = self.time_us;
+        let key = self.key.clone();
+        let r = &mut self.robots[i];
+        match (online, r.fw.is_some()) {
+            (false, true) => {
+                r.fw = None;
+                r.outputs = MotorOutputs::COAST;
+                r.down.clear();
+                r.up.clear();
+                self.events.push(SimEvent {
+                    t_us: now,
+                    kind: EventKind::Offline { id },
+                });
+            }
+            (true, false) => {
+                if boot(r, &key, now).is_ok() {
+                    self.events.push(SimEvent {
+                        t_us: now,
+                        kind: EventKind::Booted { id, boot: r.boots },
+                    });
+                }
+            }
+            _ => {}
+        }
+        true
+    }
+
+    /// Change robot `id`'s link impairments. Returns false for an unknown id.
+    pub fn set_impairments(&mut self, id: RobotId, imp: Impairments) -> bool {
+        match self.index(id) {
+            Some(i) => {
+                self.robots[i].impairments = imp;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Place robot `id` at `pose` (at rest), as a person would. Returns false if unknown.
+    pub fn place(&mut self, id: RobotId, pose: Pose) -> bool {
+        let Some(i) = self.index(id) else {
+            return false;
+        };
+        let r = &mut self.robots[i];
+        r.pose = pose;
+        r.drive.v = 0.0;
+        r.drive.vy = 0.0;
+        r.drive.omega = 0.0;
+        self.bodies[i].pose = pose;
+        true
+    }
+
+    /// Couplings in every state, by robot id: (kind, a, b, state legs).
+    pub fn links(&self) -> Vec<(LinkKind, RobotId, RobotId, Link)> {
+        self.mech
+            .links()
+            .iter()
+            .map(|l| (l.kind, self.robots[l.a].id, self.robots[l.b].id, *l))
+            .collect()
+    }
+
+    /// The firmware of robot `id` (None when unknown or offline).
+    pub fn firmware(&self, id: RobotId) -> Option<&Robot<SimNonces>> {
+        self.index(id).and_then(|i| self.robots[i].fw.as_ref())
+    }
+
+    /// The drive plant state of robot `id` (wheel speeds, body velocities, battery).
+    pub fn drive_state(&self, id: RobotId) -> Option<DriveState> {
+        self.index(id).map(|i| self.robots[i].drive)
+    }
+
+    /// Events so far.
+    pub fn events(&self) -> &[SimEvent] {
+        &self.events
+    }
+
+    /// Ground truth now.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let rpm = 60.0 / core::f64::consts::TAU;
+        GroundTruth {
+            time_us: self.time_us,
+            robots: self
+                .robots
+                .iter()
+                .map(|r| {
+                    let duty = |h: HBridge| h.effective_duty().unwrap_or(0);
+                    RobotTruth {
+                        id: r.id,
+                        kind: r.kind,
+                        pose: r.pose,
+                        z: r.z,
+                        v: r.drive.v,
+                        omega: r.drive.omega,
+                        wheel_rpm: [r.drive.wheel[0] * rpm, r.drive.wheel[1] * rpm],
+                        duty: [duty(r.outputs.left), duty(r.outputs.right)],
+                        bridge: [r.outputs.left, r.outputs.right],
+                        battery_v: r.drive.battery_v,
+                        encoder_edges: [r.quad[0].count(), r.quad[1].count()],
+                        online: r.fw.is_some(),
+                        fallen: r.fallen,
+                        firmware: r.fw.as_ref().map(Robot::status),
+                    }
+                })
+                .collect(),
+            coupled: self
+                .mech
+                .coupled()
+                .map(|(a, b, k)| (self.robots[a].id, self.robots[b].id, k))
+                .collect(),
+            events: self.events.clone(),
+        }
+    }
+
+    /// True when robot `id`'s firmware is in a driving mode (speed or raw duty).
+    pub fn is_driving(&self, id: RobotId) -> bool {
+        self.firmware(id).is_some_and(|f| {
+            matches!(f.status().mode, DriveMode::Speed | DriveMode::RawDuty(_))
+        })
+    }
+}
+
+/// (Re)boot the firmware of `r` at `now_us` with a fresh nonce from its stream.
+fn boot(r: &mut SimRobot, key: &FleetKey, now_us: u64) -> Result<(), String> {
+    let nonces = SimNonces(Rng::new(r.nonces.next_u64(), u64::from(r.boots)));
+    let fw = Robot::new(
+        r.id,
+        r.kind,
+        Some(key.robot_key(r.id)),
+        r.params.firmware,
+        SIM_FIRMWARE_VERSION,
+        nonces,
+    )
+    .map_err(|e| e.to_string())?;
+    r.boots += 1;
+    r.next_tick_us = now_us + fw.period_us();
+    r.fw = Some(fw);
+    r.outputs = MotorOutputs::COAST;
+    // Fresh decoders that read the current levels at power-up.
+    for s in 0..2 {
+        let (a, b) = r.quad[s].levels();
+        r.enc[s] = Encoder::new();
+        r.enc[s].init_levels(a, b);
+    }
+    Ok(())
+}
