@@ -469,3 +469,34 @@ fn bad_parameters_are_refused_at_construction() {
     p.pi[1].kp = f32::NAN;
     assert!(Robot::new(1, RobotKind::Pilot, None, p, VERSION, counter_nonces(0)).is_err());
 }
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Arbitrary bytes, and arbitrary corruptions of a genuine command, never panic
+        /// and never change what the motors do.
+        #[test]
+        fn garbage_never_changes_a_duty(
+            junk in proptest::collection::vec(any::<u8>(), 0..200),
+            flips in proptest::collection::vec((0usize..64, 1u8..=255), 1..4),
+        ) {
+            let mut l = Link::new();
+            l.send(&speed(120.0, -60.0)).unwrap();
+            let before = l.robot.status();
+            prop_assert!(l.robot.on_datagram(&junk, l.now).is_err());
+            let mut forged = l.seal(&speed(450.0, 450.0));
+            for (i, x) in flips {
+                let i = i % forged.len();
+                forged[i] ^= x;
+            }
+            prop_assert!(l.robot.on_datagram(&forged, l.now).is_err());
+            let after = l.robot.status();
+            prop_assert_eq!(before.target_rpm, after.target_rpm);
+            prop_assert_eq!(before.mode, after.mode);
+        }
+    }
+}

@@ -18,7 +18,7 @@ use embassy_executor::Spawner;
 use embassy_futures::select::{select, Either};
 use embassy_net::udp::{PacketMetadata, UdpSocket};
 use embassy_net::{IpEndpoint, Runner, Stack, StackResources};
-use embassy_time::{Duration, Ticker, Timer};
+use embassy_time::{with_timeout, Duration, Ticker, Timer};
 use esp_backtrace as _;
 use esp_hal::gpio::Io;
 use esp_hal::rng::Rng;
@@ -265,8 +265,9 @@ async fn control_loop<N: NonceSource>(
         }
         while let Some(n) = robot.poll_transmit(encoders::now_us(), &mut tx) {
             if let (Some(s), Some(h)) = (socket.as_mut(), host) {
-                // Latest wins: a datagram that cannot be sent now is dropped, not queued.
-                let _ = s.send_to(&tx[..n], h).await;
+                // Latest wins: a datagram that cannot be sent soon is dropped, not queued,
+                // and never holds up the control loop for more than 2 ms.
+                let _ = with_timeout(Duration::from_millis(2), s.send_to(&tx[..n], h)).await;
             }
         }
     }
