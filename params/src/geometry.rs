@@ -31,6 +31,10 @@ pub struct Geometry {
     pub knob_length: f32,
     /// Height of the centre of mass above the ground (m), used by the stability gate.
     pub com_height: f32,
+    /// Convex polygon (counter-clockwise, in the body frame of the robot with the opening)
+    /// that a coupled partner's projected anchor head must stay in (m). THESIS 4.3.4 / (4.11):
+    /// pip(C_i | R_j, C_j^r, C_j^l), the triangle of the body centre and the two front corners.
+    pub anchor_polygon: [[f32; 2]; 3],
 }
 
 impl Default for Geometry {
@@ -48,6 +52,8 @@ impl Default for Geometry {
             knob_length: 0.003,
             // Not given in THESIS; battery and motors sit low: about 40 % of the height.
             com_height: 0.022,
+            // THESIS 4.3.4: body centre R_j, front-right corner C_j^r, front-left corner C_j^l.
+            anchor_polygon: [[0.0, 0.0], [0.025, -0.025], [0.025, 0.025]],
         }
     }
 }
