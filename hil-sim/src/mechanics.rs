@@ -93,6 +93,8 @@ pub struct Link {
     pub state: LinkState,
     /// Anchor legs seated (left, right).
     pub legs: [bool; 2],
+    /// Relative yaw extreme reached since the first leg popped (rad).
+    pub swing: f64,
 }
 
 /// What happened to a coupling in one step.
@@ -276,6 +278,7 @@ impl Mechanics {
             b,
             state: LinkState::Coupled,
             legs: [true, true],
+            swing: 0.0,
         });
     }
 
@@ -379,6 +382,7 @@ impl Mechanics {
                             b,
                             state: LinkState::Inserting,
                             legs: [true, true],
+                            swing: 0.0,
                         });
                         continue;
                     }
@@ -395,6 +399,7 @@ impl Mechanics {
                             b,
                             state: LinkState::Coupled,
                             legs: [true, true],
+                            swing: 0.0,
                         });
                         events.push(LinkEvent::Coupled(LinkKind::Knob, a, b));
                     }
@@ -552,10 +557,26 @@ impl Mechanics {
                 }
                 LinkState::Coupled => {
                     let thr = LEG_RELEASE_FRACTION * c.yaw;
-                    if phi > thr {
-                        l.legs[0] = false;
-                    } else if phi < -thr {
-                        l.legs[1] = false;
+                    match l.legs {
+                        [true, true] => {
+                            if phi.abs() > thr {
+                                l.legs[usize::from(phi < 0.0)] = false;
+                                l.swing = phi;
+                            }
+                        }
+                        [false, true] | [true, false] => {
+                            // One leg out: the anchor pivots on the other one, and swinging
+                            // back by the release angle levers it out of its slit too.
+                            if !l.legs[0] {
+                                l.swing = l.swing.max(phi);
+                            } else {
+                                l.swing = l.swing.min(phi);
+                            }
+                            if (l.swing - phi).abs() > thr {
+                                l.legs = [false, false];
+                            }
+                        }
+                        [false, false] => {}
                     }
                     let q = ba.pose.inverse_apply(bb.pose.apply(sh.pin()));
                     let ext = sh.head[0] - q[0];

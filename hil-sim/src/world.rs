@@ -143,6 +143,11 @@ pub struct RobotTruth {
     pub fallen: bool,
     /// Firmware status (None when offline).
     pub firmware: Option<Status>,
+    /// Datagrams the firmware rejected since boot, per `Rejection` reason
+    /// (indexed by `reason as usize`).
+    pub rejected: [u32; puzzlebot_protocol::Rejection::ALL.len()],
+    /// Authenticated frames the firmware accepted since boot.
+    pub accepted: u32,
 }
 
 /// Ground truth of the whole world.
@@ -745,6 +750,8 @@ impl World {
                         online: r.fw.is_some(),
                         fallen: r.fallen,
                         firmware: r.fw.as_ref().map(Robot::status),
+                        rejected: r.fw.as_ref().map_or([0; 12], |f| f.stats().rejected),
+                        accepted: r.fw.as_ref().map_or(0, |f| f.stats().accepted),
                     }
                 })
                 .collect(),

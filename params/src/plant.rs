@@ -31,14 +31,15 @@ pub struct Plant {
     pub idle_current: f32,
     /// Pilot robots have four wheels (poor turning); non-pilots two wheels + casters.
     pub four_wheels: bool,
-    /// Armature resistance (Ω). Chosen so the stall current at 3.7 V is ≈ 0.4 A
-    /// (THESIS 2.3.3: 0.9 mN·m at 370 mA).
+    /// Armature resistance (Ω). With `motor_k` it gives 0.8 mN·m at 370 mA (THESIS 2.3.3:
+    /// 0.9 mN·m at 370 mA), a stall current of 0.74 A at 3.7 V (DRV8833: 1 A per bridge)
+    /// and a loaded wheel time constant of ≈ 34 ms (firmware/core tunes its PI for 30 ms).
     pub motor_resistance: f32,
     /// Armature inductance (H). Typical N20: 0.5 mH (L/R ≈ 55 µs).
     pub motor_inductance: f32,
     /// Torque constant k_t (N·m/A) = back-EMF constant k_e (V·s/rad) in SI units.
     /// Chosen so the unloaded wheel runs ≈ 540 RPM at 3.7 V through the gearbox, which leaves
-    /// the 450 RPM of THESIS 5.2.3 reachable under load; stall torque ≈ 0.9 mN·m (2.3.3).
+    /// the 450 RPM of THESIS 5.2.3 reachable under load.
     pub motor_k: f32,
     /// Rotor plus first gear stage inertia (kg·m², motor side). Typical N20: 5·10⁻⁹.
     pub rotor_inertia: f32,
@@ -47,7 +48,8 @@ pub struct Plant {
     /// Gearbox efficiency (torque).
     pub gear_efficiency: f32,
     /// Static (break-away) friction torque at the wheel shaft (N·m): the start-up
-    /// dead-band M_min of THESIS 3.4. 1.9 mN·m needs ≈ 10 % duty to start at 3.7 V.
+    /// dead-band M_min of THESIS 3.4. 2.7 mN·m needs ≈ 8 % duty to start at 3.7 V
+    /// (`Firmware::ff_deadband_duty` = 80 per-mille).
     pub friction_static: f32,
     /// Coulomb friction torque at the wheel shaft while turning (N·m).
     pub friction_coulomb: f32,
@@ -91,19 +93,19 @@ impl Plant {
             battery_initial_soc: 0.5,
             idle_current: 0.1,
             four_wheels: pilot,
-            motor_resistance: 9.0,
+            motor_resistance: 5.0,
             motor_inductance: 0.5e-3,
             motor_k: 2.18e-3,
             rotor_inertia: 5.0e-9,
             gear_ratio: 30.0,
             gear_efficiency: 0.7,
-            friction_static: 1.9e-3,
-            friction_coulomb: 1.2e-3,
+            friction_static: 2.7e-3,
+            friction_coulomb: 1.8e-3,
             friction_viscous: 2.0e-6,
             wheel_friction: 0.6,
             wheel_lateral_friction: 0.8,
             slip_angle_saturation: 0.15,
-            traction_slip_speed: 0.02,
+            traction_slip_speed: 0.005,
             wheel_axle_offset: if pilot { 0.016 } else { 0.0 },
             wheel_load_fraction: if pilot { 1.0 } else { 0.8 },
             caster_offset: 0.018,

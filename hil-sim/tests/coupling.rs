@@ -1,0 +1,152 @@
+//! Coupling mechanics driven by the real firmware: insertion needs alignment, no straight
+//! pull-out, release by wiggling (THESIS 4.2.2, 4.3.2, 5.2.2, 5.4.2).
+
+mod common;
+
+use common::{connect, drive, key, speed, MiniHost};
+use puzzlebot_protocol::HostMsg;
+use puzzlebot_sim::{CouplingSpec, EventKind, LinkKind, RobotSpec, Scenario, World};
+
+/// Robot 1 (opening) behind robot 2 (anchor on its back), both facing +x; 2 is `gap` m
+/// ahead of the coupled position and `dy` m aside.
+fn pair(gap: f64, dy: f64, coupled: bool) -> Scenario {
+    let mut s = Scenario::grid(0, 5);
+    s.robots = vec![
+        RobotSpec {
+            id: 1,
+            kind: puzzlebot_protocol::RobotKind::NonPilot,
+            pose: [0.0, 0.0, 0.0],
+            impairments: None,
+            offline: false,
+        },
+        RobotSpec {
+            id: 2,
+            kind: puzzlebot_protocol::RobotKind::NonPilot,
+            pose: [0.05 + gap, dy, 0.0],
+            impairments: None,
+            offline: false,
+        },
+    ];
+    if coupled {
+        s.couplings = vec![CouplingSpec {
+            kind: LinkKind::Anchor,
+            a: 2,
+            b: 1,
+        }];
+    }
+    s
+}
+
+fn approach(dy: f64) -> World {
+    let mut w = World::new(&pair(0.02, dy, false), &key()).expect("world");
+    let mut host = MiniHost::new(key());
+    connect(&mut w, &mut host, 2.0);
+    // Robot 1 drives forward into robot 2's anchor; robot 2 holds still; both stop once
+    // coupled (pushing on through the anchor's pivot would jackknife the pair).
+    for _ in 0..40 {
+        drive(&mut w, &mut host, 0.05, |_, id| {
+            Some(if id == 1 {
+                speed(60.0, 60.0)
+            } else {
+                speed(0.0, 0.0)
+            })
+        });
+        if w.ground_truth().are_coupled(2, 1) {
+            break;
+        }
+    }
+    drive(&mut w, &mut host, 0.3, |_, _| Some(HostMsg::Stop));
+    w
+}
+
+#[test]
+fn aligned_robots_couple_when_driven_together() {
+    let w = approach(0.002);
+    let t = w.ground_truth();
+    assert!(t.are_coupled(2, 1), "links {:?}", w.links());
+    assert!(t
+        .events
+        .iter()
+        .any(|e| e.kind == EventKind::Coupled { kind: LinkKind::Anchor, a: 2, b: 1 }));
+    // Anchor fully in: centres one body length apart (within the 5 mm travel), in line.
+    let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
+    let d = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt();
+    assert!((0.0495..0.0556).contains(&d), "{p1:?} {p2:?}");
+}
+
+#[test]
+fn robots_misaligned_by_5_mm_do_not_couple_and_do_not_overlap() {
+    let w = approach(0.005);
+    let t = w.ground_truth();
+    assert!(!t.are_coupled(2, 1), "links {:?}", w.links());
+    let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
+    // The anchor head (7 mm) stops on robot 1's front face: the bodies stay ≥ 7 mm apart,
+    // and robot 1 pushes robot 2 ahead of it.
+    assert!(p2.x - p1.x > 0.056, "{p1:?} {p2:?}");
+    assert!(p2.x > 0.0705, "robot 2 was pushed: {p2:?}");
+}
+
+#[test]
+fn coupled_pair_holds_a_straight_pull_but_separates_within_2_s_of_wiggling() {
+    let mut w = World::new(&pair(0.0, 0.0, true), &key()).expect("world");
+    let mut host = MiniHost::new(key());
+    connect(&mut w, &mut host, 2.0);
+    assert!(w.ground_truth().are_coupled(2, 1));
+    // Drive straight apart for 3 s: robot 2 forward, robot 1 backward.
+    drive(&mut w, &mut host, 3.0, |_, id| {
+        Some(if id == 2 {
+            speed(200.0, 200.0)
+        } else {
+            speed(-200.0, -200.0)
+        })
+    });
+    let t = w.ground_truth();
+    assert!(t.are_coupled(2, 1), "a straight pull must not release the anchor");
+    let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
+    let sep = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt();
+    assert!(sep < 0.05 + 0.0055, "separation {sep} within the 5 mm travel");
+    // Push back together, then the anchor robot wiggles (THESIS 5.7): v_bias forward,
+    // ω = ω_max·sgn(sin(B t)), period 1 s; robot 1 stays put.
+    drive(&mut w, &mut host, 0.5, |_, id| {
+        Some(if id == 1 { speed(60.0, 60.0) } else { speed(0.0, 0.0) })
+    });
+    let start = w.time_us();
+    let r = 0.017;
+    let half_base = 0.02;
+    let rpm = |v: f64| (v / r * 60.0 / std::f64::consts::TAU) as f32;
+    let t0 = start as f64 * 1e-6;
+    drive(&mut w, &mut host, 2.0, |t, id| {
+        if id == 1 {
+            return Some(HostMsg::Stop);
+        }
+        let (v_bias, w_max) = (0.08, 6.0);
+        let om = w_max * (std::f64::consts::TAU * (t - t0)).sin().signum();
+        Some(speed(rpm(v_bias - om * half_base), rpm(v_bias + om * half_base)))
+    });
+    let released = w.events().iter().find(|e| {
+        e.kind
+            == EventKind::Decoupled {
+                kind: LinkKind::Anchor,
+                a: 2,
+                b: 1,
+            }
+    });
+    let released = released.expect("the wiggle releases the anchor");
+    let after = (released.t_us - start) as f64 * 1e-6;
+    println!("released after {after:.2} s of wiggling");
+    assert!(after <= 2.0);
+    assert!(!w.ground_truth().are_coupled(2, 1));
+}
+
+#[test]
+fn coupled_groups_move_together() {
+    let mut w = World::new(&pair(0.0, 0.0, true), &key()).expect("world");
+    let mut host = MiniHost::new(key());
+    connect(&mut w, &mut host, 2.0);
+    drive(&mut w, &mut host, 2.0, |_, _| Some(speed(150.0, 150.0)));
+    let t = w.ground_truth();
+    assert!(t.are_coupled(2, 1));
+    let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
+    assert!(p1.x > 0.3, "the pair drove: {p1:?}");
+    assert!((p2.x - p1.x - 0.05).abs() < 0.006 && (p2.y - p1.y).abs() < 0.003, "{p1:?} {p2:?}");
+}
