@@ -1,1 +1,28 @@
-//! Quasi-static stability of modular assemblies as a second-order cone program (the stability gate).
+//! Quasi-static stability of modular assemblies as a second-order cone program (the stability
+//! gate, SOCP paper §2–4, DESIGN.md §7).
+//!
+//! - [`model`]: the general model (modules, connections, contacts, loads, connectors) and its
+//!   file format (JSON/TOML, see README.md);
+//! - [`socp`]: the sparse equilibrium system Zx = b (29) and the cone programs (41)/(51);
+//! - [`gate`]: Theorem 2 verdicts, margins (42)/(52), broken connections (44), the
+//!   determinate-tree fast path;
+//! - [`range`]: admissible external load at a point by bisection (SOCP 4.1);
+//! - [`puzzlebot`]: PuzzleBot adapter and `max_safe_advance`;
+//! - [`io`]: files, reports and [`io::gate_command`] (the CLI entry point); [`picture`]: SVG.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bench_problems;
+pub mod gate;
+pub mod io;
+pub mod model;
+pub mod picture;
+pub mod puzzlebot;
+pub mod range;
+pub mod socp;
+
+pub use gate::{evaluate, evaluate_with, Options, Report, Verdict};
+pub use io::{gate_command, load_assembly, GateError};
+pub use model::{Assembly, ConnectorSpec, Limits6, ModelError};
+pub use puzzlebot::{max_safe_advance, Advance, LimitedBy};
+pub use range::{load_range, LoadRange};

@@ -1,0 +1,88 @@
+//! `puzzlebot-gate`: run the stability gate on an assembly file, or export benchmark problems.
+
+use clap::{Parser, Subcommand};
+use puzzlebot_stability::bench_problems::Family;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(about = "Quasi-static stability gate (SOCP) for modular assemblies")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Check an assembly file (.json or .toml): verdict, margin, worst connections, solve time.
+    Check {
+        /// Assembly file.
+        file: PathBuf,
+        /// Print the full report as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Write an SVG picture coloured by connection load.
+        #[arg(long)]
+        picture: Option<PathBuf>,
+    },
+    /// Write a benchmark problem as JSON (families: chain, mesh, tree-ground, tree-hanging).
+    Export {
+        /// Family name.
+        family: String,
+        /// Number of modules.
+        n: usize,
+        /// Output file.
+        out: PathBuf,
+        /// Random seed (trees).
+        #[arg(long, default_value_t = 7)]
+        seed: u64,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.cmd {
+        Cmd::Check {
+            file,
+            json,
+            picture,
+        } => match puzzlebot_stability::gate_command(&file, json, picture.as_deref()) {
+            Ok(s) => {
+                print!("{s}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(2)
+            }
+        },
+        Cmd::Export {
+            family,
+            n,
+            out,
+            seed,
+        } => {
+            let Some(f) = Family::parse(&family) else {
+                eprintln!("error: unknown family {family:?} (chain, mesh, tree-ground, tree-hanging)");
+                return ExitCode::from(2);
+            };
+            if n == 0 {
+                eprintln!("error: n must be ≥ 1");
+                return ExitCode::from(2);
+            }
+            let a = f.build(n, seed);
+            let text = match serde_json::to_string(&a) {
+                Ok(t) => t,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            if let Err(e) = std::fs::write(&out, text) {
+                eprintln!("error: {}: {e}", out.display());
+                return ExitCode::from(2);
+            }
+            ExitCode::SUCCESS
+        }
+    }
+}

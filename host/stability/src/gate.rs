@@ -1,0 +1,586 @@
+//! Theorem 2 verdicts, the internal stability margin (42)/(52), potential broken connections
+//! (44), friction margins, and the fast path for statically determinate trees.
+
+use crate::model::{add, cross, dot, norm, Assembly, ConnectorSpec, ModelError, Resolved, Vec3};
+use crate::socp::{self, Outcome, SLOTS};
+use serde::Serialize;
+use std::time::Instant;
+
+/// The gate's verdict (SOCP Theorem 2, plus "not proven" for solver trouble, DESIGN.md §10).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Verdict {
+    /// An optimal solution of (41) exists: the configuration is stable.
+    Stable,
+    /// (41) is infeasible but feasible without connector limits: connectors too weak.
+    InternalInstability,
+    /// Infeasible even without connector limits: the whole body tips, slides or falls.
+    WholeBodyInstability,
+    /// The solver reached no certificate either way; never treat as stable.
+    NotProven {
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+impl Verdict {
+    /// True only for a proven stable verdict.
+    pub fn is_stable(&self) -> bool {
+        matches!(self, Verdict::Stable)
+    }
+    /// Short name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Verdict::Stable => "stable",
+            Verdict::InternalInstability => "internal instability",
+            Verdict::WholeBodyInstability => "whole-body instability",
+            Verdict::NotProven { .. } => "not proven",
+        }
+    }
+}
+
+/// Required connection wrench of one connection in the critical stable state x̃.
+#[derive(Debug, Clone, Serialize)]
+pub struct ConnectionResult {
+    /// Index in `connections`.
+    pub index: usize,
+    /// Child module id.
+    pub child: String,
+    /// Parent module id.
+    pub parent: String,
+    /// Connector type name.
+    pub connector: String,
+    /// f̄_A (34): [f_x, f_y, f_con^z, m_x, m_y, m_z] in the connection frame (N, N·m).
+    pub wrench: [f64; 6],
+    /// Normal support force f_s (24), ≥ 0.
+    pub support: f64,
+    /// Characteristic strength w (40) (box) or adhesion −f_con (Lorentz, 51).
+    pub strength: f64,
+    /// Largest ratio of required to available wrench over limited dimensions (1 = at limit).
+    pub use_of_limit: Option<f64>,
+    /// Smallest W̃-weighted reserve over limited dimensions (its minimum over all is s_sm).
+    pub margin: Option<f64>,
+    /// Required wrench exceeds the limit.
+    pub over_limit: bool,
+    /// Potential broken connection point (44): strength within ε of the maximum.
+    pub critical: bool,
+}
+
+/// A contact force and its friction margin.
+#[derive(Debug, Clone, Serialize)]
+pub struct ContactResult {
+    /// Index in `contacts` (or `module_contacts`).
+    pub index: usize,
+    /// Module id.
+    pub module: String,
+    /// Force in the contact frame (f_x, f_y, f_z).
+    pub force: Vec3,
+    /// f_z − ‖(f_x/μ_x, f_y/μ_y)‖ (right side of (30) minus its left side), N.
+    pub friction_margin: f64,
+}
+
+/// How the answer was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Path {
+    /// Statically determinate tree: leaf-to-root statics, no cone program.
+    DeterminateTree,
+    /// Cone program(s) in Clarabel.
+    Socp,
+}
+
+/// Timing and solver statistics.
+#[derive(Debug, Clone, Serialize)]
+pub struct Stats {
+    /// Fast path or cone program.
+    pub path: Path,
+    /// Cone programs solved.
+    pub solves: u32,
+    /// Interior-point iterations in total.
+    pub iterations: u32,
+    /// Seconds building the model(s) (resolve + sparse assembly).
+    pub build_seconds: f64,
+    /// Seconds in the solver.
+    pub solve_seconds: f64,
+    /// Total seconds.
+    pub total_seconds: f64,
+    /// Modules, connections, contacts (environmental + module).
+    pub size: [usize; 3],
+}
+
+/// Everything the gate says about an assembly.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Internal stability margin s_sm (42)/(52); None when no connection has a limit or
+    /// when there is no state (whole-body instability, not proven).
+    pub margin: Option<f64>,
+    /// Required maximum characteristic strength w_A^max of the critical state.
+    pub max_strength: Option<f64>,
+    /// Per-connection results of the critical state x̃ (empty without a state).
+    pub connections: Vec<ConnectionResult>,
+    /// Environmental contacts.
+    pub contacts: Vec<ContactResult>,
+    /// Non-connected module contacts.
+    pub module_contacts: Vec<ContactResult>,
+    /// Statistics.
+    pub stats: Stats,
+}
+
+impl Report {
+    /// Indices of connections over their limit or critical (44), worst first.
+    pub fn worst_connections(&self, k: usize) -> Vec<&ConnectionResult> {
+        let mut v: Vec<&ConnectionResult> = self.connections.iter().collect();
+        v.sort_by(|a, b| {
+            let ua = a.use_of_limit.unwrap_or(0.0);
+            let ub = b.use_of_limit.unwrap_or(0.0);
+            ub.total_cmp(&ua).then(b.strength.total_cmp(&a.strength))
+        });
+        v.truncate(k);
+        v
+    }
+    /// Connections that would break: over their limit (internal instability).
+    pub fn broken(&self) -> Vec<usize> {
+        self.connections
+            .iter()
+            .filter(|c| c.over_limit || (self.verdict == Verdict::InternalInstability && c.critical))
+            .map(|c| c.index)
+            .collect()
+    }
+}
+
+/// Physical components of a connection: [f_x, f_y, f_con, f_s, m_x, m_y, m_z].
+type Comps = [f64; SLOTS];
+
+fn wrench6(c: &Comps) -> [f64; 6] {
+    [c[0], c[1], c[2], c[4], c[5], c[6]]
+}
+
+/// Strength, use of limit, W̃-weighted margin, over-limit flag of one connection.
+fn judge(spec: &ConnectorSpec, c: &Comps) -> (f64, Option<f64>, Option<f64>, bool) {
+    let w6 = wrench6(c);
+    match spec {
+        ConnectorSpec::Box {
+            max,
+            omega_k,
+            margin_weights,
+        } => {
+            let strength = (0..6)
+                .map(|d| (omega_k[d] * w6[d]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let mut use_: Option<f64> = None;
+            let mut margin: Option<f64> = None;
+            let mut over = false;
+            for (d, l) in max.as_array().iter().enumerate() {
+                let Some(l) = *l else { continue };
+                let req = w6[d].abs();
+                if l == 0.0 {
+                    continue; // released: the variable is identically zero
+                }
+                let u = req / l;
+                use_ = Some(use_.map_or(u, |x: f64| x.max(u)));
+                let m = margin_weights[d] * (l - req);
+                margin = Some(margin.map_or(m, |x: f64| x.min(m)));
+                if req > l * (1.0 + 1e-6) + 1e-9 {
+                    over = true;
+                }
+            }
+            (strength, use_, margin, over)
+        }
+        ConnectorSpec::Lorentz { f_max_z, .. } => {
+            let req = (-c[2]).max(0.0);
+            let over = req > f_max_z * (1.0 + 1e-6) + 1e-9;
+            let use_ = if *f_max_z > 0.0 {
+                Some(req / f_max_z)
+            } else {
+                None
+            };
+            (req, use_, Some(f_max_z - req), over)
+        }
+    }
+}
+
+fn friction(force: Vec3, mu: [f64; 2]) -> f64 {
+    let t = |f: f64, m: f64| {
+        if m > 0.0 {
+            f / m
+        } else if f.abs() < 1e-12 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
+    };
+    force[2] - (t(force[0], mu[0]).powi(2) + t(force[1], mu[1]).powi(2)).sqrt()
+}
+
+struct State {
+    conns: Vec<Comps>,
+    contacts: Vec<Vec3>,
+    module_contacts: Vec<Vec3>,
+}
+
+fn summarize(r: &Resolved, verdict: Verdict, state: Option<State>, stats: Stats) -> Report {
+    let Some(st) = state else {
+        return Report {
+            verdict,
+            margin: None,
+            max_strength: None,
+            connections: vec![],
+            contacts: vec![],
+            module_contacts: vec![],
+            stats,
+        };
+    };
+    let mut conns = Vec::with_capacity(st.conns.len());
+    let mut wmax: f64 = 0.0;
+    let mut margin: Option<f64> = None;
+    for (k, (c, rc)) in st.conns.iter().zip(&r.connections).enumerate() {
+        let spec = &r.connectors[rc.connector];
+        let (strength, use_of_limit, m, over_limit) = judge(spec, c);
+        wmax = wmax.max(strength);
+        if let Some(m) = m {
+            margin = Some(margin.map_or(m, |x: f64| x.min(m)));
+        }
+        conns.push(ConnectionResult {
+            index: k,
+            child: r.ids[rc.child].clone(),
+            parent: r.ids[rc.parent].clone(),
+            connector: r.connector_names[rc.connector].clone(),
+            wrench: wrench6(c),
+            support: c[3],
+            strength,
+            use_of_limit,
+            margin: m,
+            over_limit,
+            critical: false,
+        });
+    }
+    // (44) with ε relative to w_A^max.
+    let eps = 1e-4 * wmax + 1e-9;
+    if wmax > 1e-9 {
+        for c in &mut conns {
+            c.critical = wmax - c.strength <= eps;
+        }
+    }
+    let contacts = st
+        .contacts
+        .iter()
+        .zip(&r.contacts)
+        .enumerate()
+        .map(|(k, (f, ct))| ContactResult {
+            index: k,
+            module: r.ids[ct.module].clone(),
+            force: *f,
+            friction_margin: friction(*f, ct.mu),
+        })
+        .collect();
+    let module_contacts = st
+        .module_contacts
+        .iter()
+        .zip(&r.module_contacts)
+        .enumerate()
+        .map(|(k, (f, (ct, _)))| ContactResult {
+            index: k,
+            module: r.ids[ct.module].clone(),
+            force: *f,
+            friction_margin: friction(*f, ct.mu),
+        })
+        .collect();
+    Report {
+        verdict,
+        margin,
+        max_strength: if r.connections.is_empty() {
+            None
+        } else {
+            Some(wmax)
+        },
+        connections: conns,
+        contacts,
+        module_contacts,
+        stats,
+    }
+}
+
+/// Options of an evaluation.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// Use the leaf-to-root statics fast path when the assembly is a determinate tree.
+    pub fast_path: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { fast_path: true }
+    }
+}
+
+/// Evaluate an assembly: resolve it (errors name the field), then run the gate.
+pub fn evaluate(a: &Assembly) -> Result<Report, ModelError> {
+    evaluate_with(a, Options::default())
+}
+
+/// Evaluate with options.
+pub fn evaluate_with(a: &Assembly, opt: Options) -> Result<Report, ModelError> {
+    let t0 = Instant::now();
+    let r = a.resolve()?;
+    let build = t0.elapsed().as_secs_f64();
+    Ok(evaluate_resolved(&r, opt, t0, build))
+}
+
+fn size(r: &Resolved) -> [usize; 3] {
+    [
+        r.com.len(),
+        r.connections.len(),
+        r.contacts.len() + r.module_contacts.len(),
+    ]
+}
+
+/// Run the gate on a resolved model (Algorithm 2, solving the relaxed problem first).
+pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -> Report {
+    if opt.fast_path {
+        if let Some((verdict, state)) = determinate_tree(r) {
+            let total = t0.elapsed().as_secs_f64();
+            let stats = Stats {
+                path: Path::DeterminateTree,
+                solves: 0,
+                iterations: 0,
+                build_seconds: total,
+                solve_seconds: 0.0,
+                total_seconds: total,
+                size: size(r),
+            };
+            return summarize(r, verdict, state, stats);
+        }
+    }
+    let mut stats = Stats {
+        path: Path::Socp,
+        solves: 0,
+        iterations: 0,
+        build_seconds: build0,
+        solve_seconds: 0.0,
+        total_seconds: 0.0,
+        size: size(r),
+    };
+    let run = |with_limits: bool, stats: &mut Stats| {
+        let tb = Instant::now();
+        let p = socp::build(r, with_limits);
+        stats.build_seconds += tb.elapsed().as_secs_f64();
+        let (out, info) = socp::solve(&p);
+        stats.solves += 1;
+        stats.iterations += info.iterations;
+        stats.solve_seconds += info.seconds;
+        (p, out)
+    };
+    let state_of = |p: &socp::Program, x: &[f64]| State {
+        conns: p
+            .conns
+            .iter()
+            .map(|l| socp::connection_values(l, x))
+            .collect(),
+        contacts: p
+            .contacts
+            .iter()
+            .zip(&r.contacts)
+            .map(|(l, c)| socp::contact_force(l, c.mu, x))
+            .collect(),
+        module_contacts: p
+            .module_contacts
+            .iter()
+            .zip(&r.module_contacts)
+            .map(|(l, (c, _))| socp::contact_force(l, c.mu, x))
+            .collect(),
+    };
+    // Relaxed problem first (𝕏, Definition 1): infeasible ⇒ whole-body instability. Its optimum
+    // is also optimal for (41) when it satisfies every connector limit.
+    let (p, out) = run(false, &mut stats);
+    let (verdict, state) = match out {
+        Outcome::Infeasible => (Verdict::WholeBodyInstability, None),
+        Outcome::Failed(reason) => (Verdict::NotProven { reason }, None),
+        Outcome::Optimal(x) => {
+            let st = state_of(&p, &x);
+            let within = st
+                .conns
+                .iter()
+                .zip(&r.connections)
+                .all(|(c, rc)| !judge(&r.connectors[rc.connector], c).3);
+            if within {
+                (Verdict::Stable, Some(st))
+            } else {
+                let (p2, out2) = run(true, &mut stats);
+                match out2 {
+                    Outcome::Optimal(x2) => (Verdict::Stable, Some(state_of(&p2, &x2))),
+                    Outcome::Infeasible => (Verdict::InternalInstability, Some(st)),
+                    Outcome::Failed(reason) => (Verdict::NotProven { reason }, Some(st)),
+                }
+            }
+        }
+    };
+    stats.total_seconds = t0.elapsed().as_secs_f64();
+    summarize(r, verdict, state, stats)
+}
+
+/// Fast path (DESIGN.md §7): when every free module hangs from exactly one fixed module through
+/// a tree of connections and touches nothing else, the connection wrenches follow from statics
+/// by one leaf-to-root pass, and the decoupling (24) that minimises (41) is in closed form.
+/// Returns None when the assembly is not such a tree.
+fn determinate_tree(r: &Resolved) -> Option<(Verdict, Option<State>)> {
+    let n = r.com.len();
+    if r.connections.is_empty() {
+        return None;
+    }
+    if r.contacts.iter().any(|c| !r.fixed[c.module])
+        || r
+            .module_contacts
+            .iter()
+            .any(|(c, o)| !r.fixed[c.module] || !r.fixed[*o])
+    {
+        return None;
+    }
+    let free = r.fixed.iter().filter(|f| !**f).count();
+    // adjacency (CSR) over connections touching a free module
+    let mut deg = vec![0usize; n + 1];
+    let mut edges = 0;
+    for c in &r.connections {
+        if r.fixed[c.child] && r.fixed[c.parent] {
+            continue;
+        }
+        deg[c.child + 1] += 1;
+        deg[c.parent + 1] += 1;
+        edges += 1;
+    }
+    if edges != free {
+        return None;
+    }
+    for i in 0..n {
+        deg[i + 1] += deg[i];
+    }
+    let mut fill = deg.clone();
+    let mut adj = vec![0usize; deg[n]];
+    for (k, c) in r.connections.iter().enumerate() {
+        if r.fixed[c.child] && r.fixed[c.parent] {
+            continue;
+        }
+        adj[fill[c.child]] = k;
+        fill[c.child] += 1;
+        adj[fill[c.parent]] = k;
+        fill[c.parent] += 1;
+    }
+    // BFS from the fixed modules.
+    let mut up = vec![usize::MAX; n]; // connection towards the ground
+    let mut seen = r.fixed.clone();
+    let mut order = Vec::with_capacity(free);
+    let mut queue: Vec<usize> = (0..n).filter(|&i| r.fixed[i]).collect();
+    let mut head = 0;
+    while head < queue.len() {
+        let i = queue[head];
+        head += 1;
+        for &k in &adj[deg[i]..deg[i + 1]] {
+            let c = &r.connections[k];
+            let j = if c.child == i { c.parent } else { c.child };
+            if seen[j] {
+                if r.fixed[i] && r.fixed[j] {
+                    continue;
+                }
+                if up[i] == k {
+                    continue;
+                }
+                return None; // a loop (or two fixed roots): indeterminate
+            }
+            seen[j] = true;
+            up[j] = k;
+            order.push(j);
+            queue.push(j);
+        }
+    }
+    if order.len() != free {
+        return None; // floating parts: let the cone program decide
+    }
+    // Leaf-to-root: subtree force and moment about the world origin.
+    let mut sf: Vec<Vec3> = (0..n).map(|i| r.ext[i].0).collect();
+    let mut sm: Vec<Vec3> = (0..n)
+        .map(|i| add(r.ext[i].1, cross(r.com[i], r.ext[i].0)))
+        .collect();
+    let mut conns: Vec<Comps> = vec![[0.0; SLOTS]; r.connections.len()];
+    let mut scale_f: f64 = 1e-12;
+    for f in &sf {
+        scale_f = scale_f.max(norm(*f));
+    }
+    let mut mechanism = false;
+    for &i in order.iter().rev() {
+        let k = up[i];
+        let c = &r.connections[k];
+        let p = c.point;
+        // Wrench the connection applies to module i (world): balances the subtree.
+        let fe = [-sf[i][0], -sf[i][1], -sf[i][2]];
+        let mp = add([-sm[i][0], -sm[i][1], -sm[i][2]], cross(p, sf[i]));
+        let (fw, mw) = if c.child == i {
+            (fe, mp)
+        } else {
+            ([-fe[0], -fe[1], -fe[2]], [-mp[0], -mp[1], -mp[2]])
+        };
+        let fl = [dot(c.frame[0], fw), dot(c.frame[1], fw), dot(c.frame[2], fw)];
+        let ml = [dot(c.frame[0], mw), dot(c.frame[1], mw), dot(c.frame[2], mw)];
+        let j = if c.child == i { c.parent } else { c.child };
+        sf[j] = add(sf[j], sf[i]);
+        sm[j] = add(sm[j], sm[i]);
+        let tol = 1e-9 * scale_f * (1.0 + norm(p));
+        let comps = &mut conns[k];
+        match &r.connectors[c.connector] {
+            ConnectorSpec::Box { max, .. } => {
+                let lim = max.as_array();
+                let vals = [fl[0], fl[1], fl[2], ml[0], ml[1], ml[2]];
+                for d in 0..6 {
+                    if lim[d] == Some(0.0) && d != 2 && vals[d].abs() > tol {
+                        mechanism = true;
+                    }
+                }
+                let (fcon, fs) = if lim[2] == Some(0.0) {
+                    if fl[2] < -tol {
+                        mechanism = true;
+                    }
+                    (0.0, fl[2].max(0.0))
+                } else {
+                    (fl[2].min(0.0), fl[2].max(0.0))
+                };
+                *comps = [fl[0], fl[1], fcon, fs, ml[0], ml[1], ml[2]];
+            }
+            ConnectorSpec::Lorentz { mu, .. } => {
+                let vals = [fl[0], fl[1], ml[0], ml[1], ml[2]];
+                let mut g2 = 0.0;
+                for d in 0..5 {
+                    if mu[d] == 0.0 {
+                        if vals[d].abs() > tol {
+                            mechanism = true;
+                        }
+                    } else {
+                        g2 += (vals[d] / mu[d]).powi(2);
+                    }
+                }
+                let fs = g2.sqrt().max(fl[2]);
+                *comps = [fl[0], fl[1], fl[2] - fs, fs, ml[0], ml[1], ml[2]];
+            }
+        }
+    }
+    if mechanism {
+        return Some((Verdict::WholeBodyInstability, None));
+    }
+    let over = conns
+        .iter()
+        .zip(&r.connections)
+        .any(|(c, rc)| judge(&r.connectors[rc.connector], c).3);
+    let verdict = if over {
+        Verdict::InternalInstability
+    } else {
+        Verdict::Stable
+    };
+    Some((
+        verdict,
+        Some(State {
+            conns,
+            contacts: r.contacts.iter().map(|_| [0.0; 3]).collect(),
+            module_contacts: r.module_contacts.iter().map(|_| [0.0; 3]).collect(),
+        }),
+    ))
+}

@@ -1,0 +1,451 @@
+//! PuzzleBot adapter: builds the general model from fleet state (poses, established pairs),
+//! the shared parameter set and the terrain, and answers "how far can this assembly advance
+//! along this heading before it tips or a connection fails" ([`max_safe_advance`]).
+//!
+//! Modelling choices (not in THESIS; stated here, kept out of `puzzlebot_params`):
+//! - non-pilot robots rest on 2 wheels at (0, ±L/2) and 2 frictionless ball casters at
+//!   (±0.4·length, 0); pilots on 4 wheels at (±0.4·length, ±L/2) (body frame, L = wheel base);
+//!   wheels hold friction in both directions (geared motors are not back-drivable);
+//! - a contact touches when the platform under it is at the assembly's level (±1 mm);
+//! - connections sit at the centre-of-mass height; the frame has x up, z horizontal into the
+//!   child; moment limits are the hold force times a lever of half the body height;
+//!   the anchor is free in yaw (THESIS 4.2.2: ±0.5 rad), so its yaw couple is released.
+
+use crate::gate::{evaluate, Verdict};
+use crate::model::{
+    Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
+};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Pose of one robot (world, m and rad).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RobotPose {
+    /// Pilot (4 wheels) or non-pilot (2 wheels + 2 casters).
+    pub kind: RobotKind,
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub yaw: f64,
+}
+
+/// Type of an established coupling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PairKind {
+    /// Robot `a`'s anchor (back) sits in robot `b`'s front opening.
+    Anchor,
+    /// Robot `a`'s left knob sits in robot `b`'s right hole.
+    Knob,
+}
+
+/// An established pair (indices into `robots`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Pair {
+    /// Robot carrying the anchor head / the knob.
+    pub a: usize,
+    /// Robot carrying the opening / the hole.
+    pub b: usize,
+    /// Anchor or knob.
+    pub kind: PairKind,
+}
+
+/// Fleet state of one assembly.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PuzzleAssembly {
+    /// Robot poses.
+    pub robots: Vec<RobotPose>,
+    /// Established pairs.
+    pub pairs: Vec<Pair>,
+}
+
+/// Options of the adapter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdvanceOptions {
+    /// Treat couplings as unbreakable (rigid mesh): only tipping/sliding limits the advance.
+    pub rigid_couplings: bool,
+    /// Search no further than this (m).
+    pub horizon: f64,
+}
+
+impl Default for AdvanceOptions {
+    fn default() -> Self {
+        AdvanceOptions {
+            rigid_couplings: false,
+            horizon: 1.0,
+        }
+    }
+}
+
+/// Why the advance stops.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum LimitedBy {
+    /// Nothing within the search horizon.
+    Horizon,
+    /// Whole-body instability: the assembly would tip, slide or fall (support lost).
+    Tips,
+    /// Internal instability: these pairs (indices into `pairs`) would break.
+    Connection {
+        /// Pair indices.
+        pairs: Vec<usize>,
+    },
+    /// A contact would run into a platform higher than the assembly stands on.
+    StepUp {
+        /// Robot index.
+        robot: usize,
+    },
+    /// The solver reached no certificate: stop (never assume stable).
+    NotProven {
+        /// Solver message.
+        reason: String,
+    },
+}
+
+/// Answer of [`max_safe_advance`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Advance {
+    /// Distance (m) the assembly can advance and still be proven stable.
+    pub distance: f64,
+    /// What stops it there.
+    pub limited_by: LimitedBy,
+}
+
+/// Adapter input errors.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AdapterError {
+    /// A pair names a robot that does not exist or itself.
+    #[error("pairs[{0}]: robot index out of range or a robot paired with itself")]
+    BadPair(usize),
+    /// A pose or argument is not finite / not positive.
+    #[error("{0}: must be finite (and step/horizon > 0)")]
+    BadNumber(&'static str),
+    /// Terrain description is invalid.
+    #[error("terrain: {0}")]
+    Terrain(String),
+    /// The general model rejected the input.
+    #[error("model: {0}")]
+    Model(#[from] crate::model::ModelError),
+}
+
+/// Contact points of a robot in its body frame, and whether each is a wheel (friction).
+pub fn contact_points(kind: RobotKind, params: &FleetParams) -> Vec<([f64; 2], bool)> {
+    let g = &params.robot(kind).geometry;
+    let cx = 0.4 * g.length as f64;
+    let hy = 0.5 * g.wheel_base as f64;
+    match kind {
+        RobotKind::NonPilot => vec![
+            ([0.0, hy], true),
+            ([0.0, -hy], true),
+            ([cx, 0.0], false),
+            ([-cx, 0.0], false),
+        ],
+        RobotKind::Pilot => vec![
+            ([cx, hy], true),
+            ([cx, -hy], true),
+            ([-cx, hy], true),
+            ([-cx, -hy], true),
+        ],
+    }
+}
+
+fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
+    let (s, c) = p.yaw.sin_cos();
+    [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]]
+}
+
+/// Contact of each robot contact point with the terrain at the assembly level.
+#[derive(Debug, Clone, PartialEq)]
+enum Touch {
+    Free,
+    On(f64), // friction
+    Blocked,
+}
+
+fn touches(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    level: f64,
+    offset: [f64; 2],
+) -> Vec<Vec<Touch>> {
+    a.robots
+        .iter()
+        .map(|r| {
+            let moved = RobotPose {
+                x: r.x + offset[0],
+                y: r.y + offset[1],
+                ..*r
+            };
+            contact_points(r.kind, params)
+                .iter()
+                .map(|(b, _)| match terrain.support_at(world(&moved, *b)) {
+                    Some((h, mu)) if (h - level).abs() <= 1e-3 => Touch::On(mu),
+                    Some((h, _)) if h > level + 1e-3 => Touch::Blocked,
+                    _ => Touch::Free,
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The level the assembly stands on: the highest platform under any of its contacts.
+pub fn assembly_level(a: &PuzzleAssembly, params: &FleetParams, terrain: &Terrain) -> Option<f64> {
+    let mut level: Option<f64> = None;
+    for r in &a.robots {
+        for (b, _) in contact_points(r.kind, params) {
+            if let Some((h, _)) = terrain.support_at(world(r, b)) {
+                level = Some(level.map_or(h, |l: f64| l.max(h)));
+            }
+        }
+    }
+    level
+}
+
+fn check(a: &PuzzleAssembly) -> Result<(), AdapterError> {
+    for r in &a.robots {
+        if !(r.x.is_finite() && r.y.is_finite() && r.yaw.is_finite()) {
+            return Err(AdapterError::BadNumber("robots[].x/y/yaw"));
+        }
+    }
+    for (k, p) in a.pairs.iter().enumerate() {
+        if p.a >= a.robots.len() || p.b >= a.robots.len() || p.a == p.b {
+            return Err(AdapterError::BadPair(k));
+        }
+    }
+    Ok(())
+}
+
+/// Build the general model of the assembly translated by `offset` (m), standing at `level`.
+pub fn build_model(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    level: f64,
+    offset: [f64; 2],
+    rigid: bool,
+) -> Result<Assembly, AdapterError> {
+    check(a)?;
+    let t = touches(a, params, terrain, level, offset);
+    let mut modules = Vec::with_capacity(a.robots.len());
+    let mut contacts = Vec::new();
+    for (i, r) in a.robots.iter().enumerate() {
+        let p = params.robot(r.kind);
+        let moved = RobotPose {
+            x: r.x + offset[0],
+            y: r.y + offset[1],
+            ..*r
+        };
+        modules.push(Module {
+            id: format!("r{i}"),
+            mass: p.mass.mass as f64,
+            position: [moved.x, moved.y, level],
+            rpy: [0.0, 0.0, r.yaw],
+            com: [
+                p.mass.com[0] as f64,
+                p.mass.com[1] as f64,
+                p.geometry.com_height as f64,
+            ],
+            fixed: false,
+        });
+        for ((b, wheel), touch) in contact_points(r.kind, params).iter().zip(&t[i]) {
+            if let Touch::On(mu) = touch {
+                let w = world(&moved, *b);
+                let m = if *wheel { *mu } else { 0.0 };
+                contacts.push(Contact {
+                    module: format!("r{i}"),
+                    point: [w[0], w[1], level],
+                    normal: None,
+                    mu: [m, m],
+                    x_axis: Some([r.yaw.cos(), r.yaw.sin(), 0.0]),
+                });
+            }
+        }
+    }
+    let mut connectors = BTreeMap::new();
+    let c = &params.non_pilot.coupling;
+    let g = &params.non_pilot.geometry;
+    let lever = 0.5 * g.height as f64;
+    let weights = [1.0, 1.0, 1.0, 1.0 / lever, 1.0 / lever, 1.0 / lever];
+    let (anchor, knob) = if rigid {
+        (Limits6::default(), Limits6::default())
+    } else {
+        let ah = c.anchor_hold_force as f64;
+        let kh = c.knob_hold_force as f64;
+        let mut anchor = Limits6::uniform(ah, ah * lever);
+        anchor.mx = Some(0.0); // yaw about the vertical local x axis: free
+        (anchor, Limits6::uniform(kh, kh * lever))
+    };
+    for (name, max) in [("anchor", anchor), ("knob", knob)] {
+        connectors.insert(
+            name.to_string(),
+            ConnectorSpec::Box {
+                max,
+                omega_k: weights,
+                margin_weights: weights,
+            },
+        );
+    }
+    let mut connections = Vec::with_capacity(a.pairs.len());
+    for p in &a.pairs {
+        let ra = &a.robots[p.a];
+        let ga = &params.robot(ra.kind).geometry;
+        let moved = RobotPose {
+            x: ra.x + offset[0],
+            y: ra.y + offset[1],
+            ..*ra
+        };
+        let (body, name) = match p.kind {
+            PairKind::Anchor => (ga.anchor_head, "anchor"),
+            PairKind::Knob => (ga.knob_left, "knob"),
+        };
+        let w = world(&moved, [body[0] as f64, body[1] as f64]);
+        let rb = &a.robots[p.b];
+        let zc = level + params.robot(rb.kind).geometry.com_height as f64;
+        let point: Vec3 = [w[0], w[1], zc];
+        // z horizontal from the point into the child b.
+        let cb = world(
+            &RobotPose {
+                x: rb.x + offset[0],
+                y: rb.y + offset[1],
+                ..*rb
+            },
+            [0.0, 0.0],
+        );
+        let mut axis = [cb[0] - w[0], cb[1] - w[1], 0.0];
+        if axis[0].hypot(axis[1]) < 1e-9 {
+            axis = [ra.yaw.cos(), ra.yaw.sin(), 0.0];
+        }
+        connections.push(Connection {
+            child: format!("r{}", p.b),
+            parent: format!("r{}", p.a),
+            connector: name.to_string(),
+            point,
+            axis: Some(axis),
+            x_axis: Some([0.0, 0.0, 1.0]),
+        });
+    }
+    Ok(Assembly {
+        gravity: [0.0, 0.0, -9.81],
+        modules,
+        connectors,
+        connections,
+        contacts,
+        module_contacts: vec![],
+        loads: vec![],
+        objective: Objective::default(),
+    })
+}
+
+/// How far this assembly can advance along `heading` (rad) before it tips or a connection
+/// fails, scanning contact changes every `step` m (default options: measured coupling limits,
+/// 1 m horizon).
+pub fn max_safe_advance(
+    assembly: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    heading: f64,
+    step: f64,
+) -> Result<Advance, AdapterError> {
+    max_safe_advance_with(
+        assembly,
+        params,
+        terrain,
+        heading,
+        step,
+        AdvanceOptions::default(),
+    )
+}
+
+/// [`max_safe_advance`] with options.
+///
+/// A rigid translation changes the model only when a contact leaves or reaches a platform, so
+/// the scan steps by `step` through contact states, locates each change by bisection (to
+/// 1 µm), and runs the gate once per new contact state.
+pub fn max_safe_advance_with(
+    assembly: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    heading: f64,
+    step: f64,
+    opt: AdvanceOptions,
+) -> Result<Advance, AdapterError> {
+    check(assembly)?;
+    terrain.validate().map_err(AdapterError::Terrain)?;
+    if !(heading.is_finite()) {
+        return Err(AdapterError::BadNumber("heading"));
+    }
+    if !(step.is_finite() && step > 0.0) {
+        return Err(AdapterError::BadNumber("step"));
+    }
+    if !(opt.horizon.is_finite() && opt.horizon > 0.0) {
+        return Err(AdapterError::BadNumber("horizon"));
+    }
+    let Some(level) = assembly_level(assembly, params, terrain) else {
+        return Ok(Advance {
+            distance: 0.0,
+            limited_by: LimitedBy::Tips,
+        });
+    };
+    let dir = [heading.cos(), heading.sin()];
+    let at = |d: f64| [dir[0] * d, dir[1] * d];
+    let state = |d: f64| touches(assembly, params, terrain, level, at(d));
+    let judge = |d: f64, st: &Vec<Vec<Touch>>| -> Result<Option<LimitedBy>, AdapterError> {
+        if let Some(robot) = st.iter().position(|r| r.contains(&Touch::Blocked)) {
+            return Ok(Some(LimitedBy::StepUp { robot }));
+        }
+        let m = build_model(assembly, params, terrain, level, at(d), opt.rigid_couplings)?;
+        let rep = evaluate(&m)?;
+        Ok(match rep.verdict {
+            Verdict::Stable => None,
+            Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
+            Verdict::InternalInstability => Some(LimitedBy::Connection {
+                pairs: rep.broken(),
+            }),
+            Verdict::NotProven { reason } => Some(LimitedBy::NotProven { reason }),
+        })
+    };
+    let mut cur = state(0.0);
+    if let Some(why) = judge(0.0, &cur)? {
+        return Ok(Advance {
+            distance: 0.0,
+            limited_by: why,
+        });
+    }
+    let mut d = 0.0;
+    while d < opt.horizon {
+        let next = (d + step).min(opt.horizon);
+        let st = state(next);
+        if st == cur {
+            d = next;
+            continue;
+        }
+        // Locate the first change in (d, next].
+        let (mut lo, mut hi) = (d, next);
+        while hi - lo > 1e-6 {
+            let mid = 0.5 * (lo + hi);
+            if state(mid) == cur {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let st_hi = state(hi);
+        if let Some(why) = judge(hi, &st_hi)? {
+            return Ok(Advance {
+                distance: lo,
+                limited_by: why,
+            });
+        }
+        cur = st_hi;
+        d = hi;
+    }
+    Ok(Advance {
+        distance: opt.horizon,
+        limited_by: LimitedBy::Horizon,
+    })
+}
