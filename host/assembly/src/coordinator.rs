@@ -149,6 +149,25 @@ pub enum EventKind {
         /// Its name.
         name: String,
     },
+    /// A scenario step started.
+    StepStarted {
+        /// Step index (0-based).
+        index: usize,
+        /// Its label or behaviour name.
+        label: String,
+    },
+    /// A scenario step finished.
+    StepFinished {
+        /// Step index.
+        index: usize,
+    },
+    /// A scenario step failed (timeout or planning error); the scenario stops.
+    StepFailed {
+        /// Step index.
+        index: usize,
+        /// Why.
+        reason: String,
+    },
     /// A pair was released after decoupling and is no longer tracked.
     PairReleased {
         /// Anchor / knob robot.
@@ -357,6 +376,25 @@ impl Coordinator {
                 .iter()
                 .enumerate()
                 .all(|(i, p)| self.released.contains(&i) || p.status == PairStatus::Connected)
+    }
+
+    /// Record an event (e.g. from a scenario runner); it is returned with the next tick.
+    pub fn record(&mut self, t: f64, kind: EventKind) {
+        self.push(t, kind);
+    }
+
+    /// Ids of known robots that are not lost.
+    pub fn robot_ids(&self) -> Vec<RobotId> {
+        self.robots
+            .keys()
+            .copied()
+            .filter(|id| !self.lost.contains(id))
+            .collect()
+    }
+
+    /// Events recorded since the last tick (drained).
+    pub fn tick_events(&mut self) -> Vec<Event> {
+        std::mem::take(&mut self.pending)
     }
 
     fn push(&mut self, t: f64, kind: EventKind) {

@@ -11,6 +11,7 @@
 //! - [`assign`]: Algorithms 1–2 (MST, closest points, convex-first, Hungarian).
 //! - [`coordinator`]: per-tick tasks, segment leaders, events, re-planning.
 //! - [`behaviour`]: wiggle, rendezvous, point controller, trajectories.
+//! - [`scenario`]: TOML scenario files chaining behaviours, and their runner.
 //! - [`pair`]: Algorithm 7 augmentation and the Algorithm 8 status machine with hysteresis.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -21,6 +22,7 @@ pub mod coordinator;
 pub mod geom;
 pub mod info;
 pub mod pair;
+pub mod scenario;
 pub mod shape;
 
 pub use assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
@@ -31,4 +33,5 @@ pub use geom::{ConnPoint, PairType, Pose2};
 pub use info::{shape_info, ShapeInfo};
 pub use pair::{PairStatus, PairTolerances, TrackedPair, Transition};
 pub use puzzlebot_protocol::messages::RobotId;
+pub use scenario::{Behaviour, RunState, Scenario, ScenarioError, ScenarioRunner, Step};
 pub use shape::{GoalPair, Shape, ShapeError, ShapeSpec, SlotKind};

@@ -1,0 +1,1052 @@
+//! Scenario files (TOML): a chain of behaviours — form a shape, hold, move an assembly
+//! (velocity, go-to-goal, trajectory), rendezvous / anti-rendezvous (THESIS 2.3.5), decouple by
+//! wiggling (THESIS 4.3.2, 5.4.2) and disperse — and a runner that executes them on a
+//! [`Coordinator`], deciding when each step is done.
+//!
+//! ```toml
+//! name = "demo"
+//!
+//! [[step]]
+//! form = { shape = "mesh", rows = 2 }
+//! timeout_s = 120
+//!
+//! [[step]]
+//! move = { go_to = [0.5, 0.0], tolerance = 0.02 }
+//!
+//! [[step]]
+//! decouple = {}            # every coupled pair; the anchor robots wiggle
+//!
+//! [[step]]
+//! disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 0.4 }] }
+//! ```
+//!
+//! Errors name the file, line, column and field.
+
+use crate::assign::RobotState;
+use crate::behaviour::{Trajectory, Wiggle};
+use crate::coordinator::{Coordinator, EventKind, Mode, Tick};
+use crate::geom::Pose2;
+use crate::shape::{Shape, ShapeSpec};
+use puzzlebot_params::geometry::Geometry;
+use puzzlebot_protocol::messages::RobotId;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+
+/// A scenario that could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// Unreadable file or malformed TOML / wrong field (file:line:column: message).
+    #[error(transparent)]
+    Load(#[from] puzzlebot_params::load::LoadError),
+    /// Well-formed TOML that does not describe a usable scenario.
+    #[error("{}:{line}:{column}: {field}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// The offending field, e.g. `step[2].move`.
+        field: String,
+        /// What was wrong.
+        message: String,
+    },
+}
+
+/// A duration or tolerance that must be finite and ≥ 0 (checked while parsing, so errors
+/// carry the value's line).
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64")]
+pub struct NonNeg(pub f64);
+
+impl TryFrom<f64> for NonNeg {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(NonNeg(v))
+        } else {
+            Err(format!("must be a finite number ≥ 0, got {v}"))
+        }
+    }
+}
+
+/// A finite number (checked while parsing).
+#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, Serialize, Deserialize)]
+#[serde(try_from = "f64")]
+pub struct Finite(pub f64);
+
+impl TryFrom<f64> for Finite {
+    type Error = String;
+    fn try_from(v: f64) -> Result<Self, String> {
+        if v.is_finite() {
+            Ok(Finite(v))
+        } else {
+            Err(format!("must be a finite number, got {v}"))
+        }
+    }
+}
+
+/// `form = { shape = "line" | "mesh" | "path/to/shape.toml", rows = 2, heading_deg = 0 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FormFile {
+    shape: Spanned<String>,
+    #[serde(default)]
+    rows: Option<usize>,
+    #[serde(default)]
+    heading_deg: Option<Finite>,
+}
+
+/// `hold = { duration_s = 2 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HoldFile {
+    duration_s: NonNeg,
+}
+
+/// `move = { velocity = [v, w], duration_s }` | `{ go_to = [x, y] or [x, y, yaw_deg], tolerance }`
+/// | `{ trajectory = [[t, x, y], …] or [[t, x, y, yaw_deg], …] }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MoveFile {
+    #[serde(default)]
+    velocity: Option<[Finite; 2]>,
+    #[serde(default)]
+    duration_s: Option<NonNeg>,
+    #[serde(default)]
+    go_to: Option<Spanned<Vec<Finite>>>,
+    #[serde(default)]
+    tolerance: Option<NonNeg>,
+    #[serde(default)]
+    trajectory: Option<Spanned<Vec<Vec<Finite>>>>,
+}
+
+/// `rendezvous = { robots = [1, 2], gain = 0.5, duration_s = 10, until_distance = 0.05 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RendezvousFile {
+    #[serde(default)]
+    robots: Option<Vec<RobotId>>,
+    #[serde(default)]
+    gain: Option<NonNeg>,
+    #[serde(default)]
+    duration_s: Option<NonNeg>,
+    #[serde(default)]
+    until_distance: Option<NonNeg>,
+}
+
+/// `decouple = { robots = [3], v_bias = 0.01, w_max = 1.5, period_s = 0.5, square = true }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DecoupleFile {
+    #[serde(default)]
+    robots: Option<Vec<RobotId>>,
+    #[serde(default)]
+    v_bias: Option<Finite>,
+    #[serde(default)]
+    w_max: Option<NonNeg>,
+    #[serde(default)]
+    period_s: Option<NonNeg>,
+    #[serde(default)]
+    square: Option<bool>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GoalFile {
+    robot: RobotId,
+    x: Finite,
+    y: Finite,
+}
+
+/// `disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, …], tolerance = 0.02 }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DisperseFile {
+    goal: Vec<GoalFile>,
+    #[serde(default)]
+    tolerance: Option<NonNeg>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StepFile {
+    #[serde(default)]
+    label: Option<String>,
+    #[serde(default)]
+    timeout_s: Option<NonNeg>,
+    #[serde(default)]
+    form: Option<FormFile>,
+    #[serde(default)]
+    hold: Option<HoldFile>,
+    #[serde(default, rename = "move")]
+    move_: Option<Spanned<MoveFile>>,
+    #[serde(default)]
+    rendezvous: Option<RendezvousFile>,
+    #[serde(default)]
+    anti_rendezvous: Option<RendezvousFile>,
+    #[serde(default)]
+    decouple: Option<DecoupleFile>,
+    #[serde(default)]
+    disperse: Option<DisperseFile>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScenarioFile {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    step: Vec<Spanned<StepFile>>,
+}
+
+/// Default goal tolerance (m).
+pub const DEFAULT_TOLERANCE: f64 = 0.02;
+
+/// One behaviour of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "behaviour")]
+pub enum Behaviour {
+    /// Form a shape with every robot (THESIS Algorithms 2–8).
+    Form {
+        /// The shape.
+        spec: ShapeSpec,
+        /// Heading of the shape (rad); default: mean robot heading.
+        heading: Option<f64>,
+    },
+    /// Stand still for a while, keeping couplings.
+    Hold {
+        /// Duration (s).
+        duration_s: f64,
+    },
+    /// Every assembly fits a velocity for a while (THESIS (4.7)).
+    Velocity {
+        /// m/s.
+        v: f64,
+        /// rad/s.
+        w: f64,
+        /// Duration (s).
+        duration_s: f64,
+    },
+    /// The shape centre goes to a goal (THESIS (4.6)).
+    GoTo {
+        /// Goal (yaw used when given).
+        goal: Pose2,
+        /// Done within this distance (m).
+        tolerance: f64,
+    },
+    /// The shape centre tracks a trajectory (THESIS (5.26)).
+    Trajectory {
+        /// Waypoints (times from the step start).
+        trajectory: Trajectory,
+    },
+    /// Rendezvous (THESIS (2.3)) or anti-rendezvous ((2.4)).
+    Rendezvous {
+        /// Robots (default: all).
+        robots: Option<Vec<RobotId>>,
+        /// Gain (1/s).
+        gain: f64,
+        /// Anti-rendezvous.
+        anti: bool,
+        /// Stop after this long (s).
+        duration_s: Option<f64>,
+        /// Rendezvous: stop when every robot is this close to its nearest neighbour;
+        /// anti: when every robot is at least this far from all others (m).
+        until_distance: Option<f64>,
+    },
+    /// Decouple pairs by wiggling the anchor robot (THESIS (5.7)).
+    Decouple {
+        /// Only pairs involving these robots (default: every coupled pair).
+        robots: Option<Vec<RobotId>>,
+        /// Wiggle profile.
+        wiggle: Wiggle,
+    },
+    /// Every listed robot goes to its own goal (THESIS (4.6)).
+    Disperse {
+        /// Goals.
+        goals: BTreeMap<RobotId, Pose2>,
+        /// Done within this distance (m).
+        tolerance: f64,
+    },
+}
+
+/// One step: a behaviour, an optional label and timeout.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Step {
+    /// Label for logs (default: the behaviour's name).
+    pub label: String,
+    /// Fail the scenario when the step takes longer (s).
+    pub timeout_s: Option<f64>,
+    /// What to do.
+    pub behaviour: Behaviour,
+    /// Line of the step in the file.
+    pub line: usize,
+}
+
+/// A parsed scenario.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Scenario {
+    /// Name (default: file stem).
+    pub name: String,
+    /// Steps, executed in order.
+    pub steps: Vec<Step>,
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl Scenario {
+    /// Load a scenario file; shape files named in `form` are resolved relative to it.
+    pub fn from_file(path: &Path, g: &Geometry) -> Result<Scenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|source| {
+            ScenarioError::Load(puzzlebot_params::load::LoadError::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        })?;
+        Scenario::from_toml_str(path, &text, g)
+    }
+
+    /// Parse scenario text; `path` names it in errors and anchors relative shape paths.
+    pub fn from_toml_str(path: &Path, text: &str, g: &Geometry) -> Result<Scenario, ScenarioError> {
+        let file: ScenarioFile = puzzlebot_params::load::from_toml_str(path, text)?;
+        let invalid = |span: std::ops::Range<usize>, field: String, message: String| {
+            let (line, column) = line_col(text, span.start);
+            ScenarioError::Invalid {
+                path: path.to_path_buf(),
+                line,
+                column,
+                field,
+                message,
+            }
+        };
+        if file.step.is_empty() {
+            return Err(invalid(
+                0..0,
+                "step".into(),
+                "a scenario needs at least one [[step]]".into(),
+            ));
+        }
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut steps = Vec::with_capacity(file.step.len());
+        for (k, spanned) in file.step.iter().enumerate() {
+            let span = spanned.span();
+            let s = spanned.get_ref();
+            let field = |f: &str| format!("step[{k}].{f}");
+            let mut given = Vec::new();
+            if s.form.is_some() {
+                given.push("form");
+            }
+            if s.hold.is_some() {
+                given.push("hold");
+            }
+            if s.move_.is_some() {
+                given.push("move");
+            }
+            if s.rendezvous.is_some() {
+                given.push("rendezvous");
+            }
+            if s.anti_rendezvous.is_some() {
+                given.push("anti_rendezvous");
+            }
+            if s.decouple.is_some() {
+                given.push("decouple");
+            }
+            if s.disperse.is_some() {
+                given.push("disperse");
+            }
+            if given.len() != 1 {
+                return Err(invalid(
+                    span,
+                    format!("step[{k}]"),
+                    format!(
+                        "exactly one behaviour expected (form, hold, move, rendezvous, anti_rendezvous, decouple, disperse), found {}",
+                        if given.is_empty() { "none".to_string() } else { given.join(", ") }
+                    ),
+                ));
+            }
+            let behaviour = if let Some(f) = &s.form {
+                let spec = match f.shape.get_ref().as_str() {
+                    "line" => {
+                        if f.rows.is_some() {
+                            return Err(invalid(
+                                f.shape.span(),
+                                field("form.rows"),
+                                "rows applies to a mesh only".into(),
+                            ));
+                        }
+                        ShapeSpec::Line
+                    }
+                    "mesh" => {
+                        let rows = f.rows.unwrap_or(2);
+                        if rows == 0 {
+                            return Err(invalid(
+                                f.shape.span(),
+                                field("form.rows"),
+                                "a mesh needs at least one row".into(),
+                            ));
+                        }
+                        ShapeSpec::Mesh { rows }
+                    }
+                    file_name => {
+                        let p = base.join(file_name);
+                        let shape = Shape::from_file(&p, g).map_err(|e| {
+                            invalid(
+                                f.shape.span(),
+                                field("form.shape"),
+                                format!("shape file: {e}"),
+                            )
+                        })?;
+                        ShapeSpec::Fixed(shape)
+                    }
+                };
+                Behaviour::Form {
+                    spec,
+                    heading: f.heading_deg.map(|d| d.0.to_radians()),
+                }
+            } else if let Some(h) = &s.hold {
+                Behaviour::Hold {
+                    duration_s: h.duration_s.0,
+                }
+            } else if let Some(m) = &s.move_ {
+                let mspan = m.span();
+                let m = m.get_ref();
+                let modes = [
+                    m.velocity.is_some(),
+                    m.go_to.is_some(),
+                    m.trajectory.is_some(),
+                ]
+                .iter()
+                .filter(|&&x| x)
+                .count();
+                if modes != 1 {
+                    return Err(invalid(
+                        mspan,
+                        field("move"),
+                        "give exactly one of velocity, go_to, trajectory".into(),
+                    ));
+                }
+                if let Some([v, w]) = m.velocity {
+                    let Some(d) = m.duration_s else {
+                        return Err(invalid(
+                            mspan,
+                            field("move.duration_s"),
+                            "velocity needs duration_s".into(),
+                        ));
+                    };
+                    Behaviour::Velocity {
+                        v: v.0,
+                        w: w.0,
+                        duration_s: d.0,
+                    }
+                } else if let Some(goal) = &m.go_to {
+                    let v = goal.get_ref();
+                    let pose = match v.as_slice() {
+                        [x, y] => Pose2::new(x.0, y.0, f64::NAN),
+                        [x, y, yaw] => Pose2::new(x.0, y.0, yaw.0.to_radians()),
+                        _ => {
+                            return Err(invalid(
+                                goal.span(),
+                                field("move.go_to"),
+                                format!(
+                                    "expected [x, y] or [x, y, yaw_deg], got {} numbers",
+                                    v.len()
+                                ),
+                            ))
+                        }
+                    };
+                    Behaviour::GoTo {
+                        goal: pose,
+                        tolerance: m.tolerance.map_or(DEFAULT_TOLERANCE, |t| t.0),
+                    }
+                } else {
+                    let tr = m.trajectory.as_ref().expect("one mode given");
+                    let mut waypoints = Vec::new();
+                    for (i, row) in tr.get_ref().iter().enumerate() {
+                        let (t, pose) = match row.as_slice() {
+                            [t, x, y] => (t.0, Pose2::new(x.0, y.0, 0.0)),
+                            [t, x, y, yaw] => (t.0, Pose2::new(x.0, y.0, yaw.0.to_radians())),
+                            _ => {
+                                return Err(invalid(
+                                    tr.span(),
+                                    field(&format!("move.trajectory[{i}]")),
+                                    "expected [t, x, y] or [t, x, y, yaw_deg]".into(),
+                                ))
+                            }
+                        };
+                        if waypoints
+                            .last()
+                            .is_some_and(|&(tp, _): &(f64, Pose2)| t <= tp)
+                        {
+                            return Err(invalid(
+                                tr.span(),
+                                field(&format!("move.trajectory[{i}]")),
+                                "times must increase strictly".into(),
+                            ));
+                        }
+                        waypoints.push((t, pose));
+                    }
+                    if waypoints.len() < 2 {
+                        return Err(invalid(
+                            tr.span(),
+                            field("move.trajectory"),
+                            "needs at least two waypoints".into(),
+                        ));
+                    }
+                    // A trajectory without headings points along its path.
+                    if tr.get_ref().iter().all(|r| r.len() == 3) {
+                        for i in 0..waypoints.len() {
+                            let (a, b) = if i + 1 < waypoints.len() {
+                                (i, i + 1)
+                            } else {
+                                (i - 1, i)
+                            };
+                            let (pa, pb) = (waypoints[a].1, waypoints[b].1);
+                            waypoints[i].1.yaw = (pb.y - pa.y).atan2(pb.x - pa.x);
+                        }
+                    }
+                    Behaviour::Trajectory {
+                        trajectory: Trajectory { waypoints },
+                    }
+                }
+            } else if let Some(r) = s.rendezvous.as_ref().or(s.anti_rendezvous.as_ref()) {
+                let anti = s.anti_rendezvous.is_some();
+                if r.duration_s.is_none() && r.until_distance.is_none() {
+                    return Err(invalid(
+                        span,
+                        field(if anti {
+                            "anti_rendezvous"
+                        } else {
+                            "rendezvous"
+                        }),
+                        "give duration_s or until_distance (or both)".into(),
+                    ));
+                }
+                Behaviour::Rendezvous {
+                    robots: r.robots.clone(),
+                    gain: r.gain.map_or(0.5, |g| g.0),
+                    anti,
+                    duration_s: r.duration_s.map(|d| d.0),
+                    until_distance: r.until_distance.map(|d| d.0),
+                }
+            } else if let Some(d) = &s.decouple {
+                let def = Wiggle::default();
+                Behaviour::Decouple {
+                    robots: d.robots.clone(),
+                    wiggle: Wiggle {
+                        v_bias: d.v_bias.map_or(def.v_bias, |v| v.0),
+                        w_max: d.w_max.map_or(def.w_max, |v| v.0),
+                        period_s: d.period_s.map_or(def.period_s, |v| v.0),
+                        square: d.square.unwrap_or(def.square),
+                    },
+                }
+            } else {
+                let d = s.disperse.as_ref().expect("one behaviour given");
+                let mut goals = BTreeMap::new();
+                for (i, gl) in d.goal.iter().enumerate() {
+                    if goals
+                        .insert(gl.robot, Pose2::new(gl.x.0, gl.y.0, 0.0))
+                        .is_some()
+                    {
+                        return Err(invalid(
+                            span.clone(),
+                            field(&format!("disperse.goal[{i}].robot")),
+                            format!("robot {} has two goals", gl.robot),
+                        ));
+                    }
+                }
+                if goals.is_empty() {
+                    return Err(invalid(span, field("disperse.goal"), "no goals".into()));
+                }
+                Behaviour::Disperse {
+                    goals,
+                    tolerance: d.tolerance.map_or(DEFAULT_TOLERANCE, |t| t.0),
+                }
+            };
+            let (line, _) = line_col(text, span.start);
+            steps.push(Step {
+                label: s.label.clone().unwrap_or_else(|| given[0].to_string()),
+                timeout_s: s.timeout_s.map(|t| t.0),
+                behaviour,
+                line,
+            });
+        }
+        let name = file.name.unwrap_or_else(|| {
+            path.file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("scenario")
+                .to_string()
+        });
+        Ok(Scenario { name, steps })
+    }
+}
+
+/// Where a running scenario stands.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunState {
+    /// Executing step `index`.
+    Running {
+        /// Current step.
+        index: usize,
+    },
+    /// All steps done.
+    Finished,
+    /// A step failed; robots hold.
+    Failed {
+        /// Failed step.
+        index: usize,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Executes a [`Scenario`] on a [`Coordinator`]: call [`ScenarioRunner::tick`] every control
+/// period with the measured robots; it starts each step, checks its completion and returns
+/// the coordinator's tasks.
+#[derive(Debug, Clone)]
+pub struct ScenarioRunner {
+    scenario: Scenario,
+    coordinator: Coordinator,
+    state: RunState,
+    step_start: Option<f64>,
+}
+
+impl ScenarioRunner {
+    /// A runner for `scenario`.
+    pub fn new(scenario: Scenario, coordinator: Coordinator) -> Self {
+        ScenarioRunner {
+            scenario,
+            coordinator,
+            state: RunState::Running { index: 0 },
+            step_start: None,
+        }
+    }
+
+    /// The coordinator (plan, pairs, events).
+    pub fn coordinator(&self) -> &Coordinator {
+        &self.coordinator
+    }
+
+    /// Mutable coordinator (e.g. to mark a robot lost).
+    pub fn coordinator_mut(&mut self) -> &mut Coordinator {
+        &mut self.coordinator
+    }
+
+    /// Where the run stands.
+    pub fn state(&self) -> &RunState {
+        &self.state
+    }
+
+    /// The scenario.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    fn fail(&mut self, t: f64, index: usize, reason: String) {
+        self.coordinator.set_mode(t, Mode::Hold);
+        self.coordinator.record(
+            t,
+            EventKind::StepFailed {
+                index,
+                reason: reason.clone(),
+            },
+        );
+        self.state = RunState::Failed { index, reason };
+    }
+
+    fn start(&mut self, t: f64, index: usize, robots: &[RobotState]) -> Result<(), String> {
+        let step = self.scenario.steps[index].clone();
+        self.coordinator.record(
+            t,
+            EventKind::StepStarted {
+                index,
+                label: step.label.clone(),
+            },
+        );
+        let c = &mut self.coordinator;
+        match step.behaviour {
+            Behaviour::Form { spec, heading } => {
+                c.form(t, spec, robots, heading)
+                    .map_err(|e| e.to_string())?;
+            }
+            Behaviour::Hold { .. } => c.set_mode(t, Mode::Hold),
+            Behaviour::Velocity { v, w, .. } => c.set_mode(t, Mode::Velocity { v, w }),
+            Behaviour::GoTo { goal, .. } => {
+                let heading = c.plan().map_or(0.0, |p| p.heading);
+                let goal = Pose2::new(
+                    goal.x,
+                    goal.y,
+                    if goal.yaw.is_finite() {
+                        goal.yaw
+                    } else {
+                        heading
+                    },
+                );
+                c.set_mode(t, Mode::GoTo { goal })
+            }
+            Behaviour::Trajectory { trajectory } => c.set_mode(
+                t,
+                Mode::Track {
+                    trajectory,
+                    start: t,
+                },
+            ),
+            Behaviour::Rendezvous {
+                robots: ids,
+                gain,
+                anti,
+                ..
+            } => {
+                let ids = ids.unwrap_or_else(|| c.robot_ids());
+                c.set_mode(
+                    t,
+                    Mode::Rendezvous {
+                        robots: ids,
+                        gain,
+                        anti,
+                    },
+                )
+            }
+            Behaviour::Decouple {
+                robots: ids,
+                wiggle,
+            } => {
+                let pairs = match ids {
+                    None => c.coupled_pairs(),
+                    Some(ids) => {
+                        let mut p: Vec<usize> = ids
+                            .iter()
+                            .flat_map(|&id| c.connected_pairs_of(id))
+                            .collect();
+                        p.sort_unstable();
+                        p.dedup();
+                        p
+                    }
+                };
+                c.set_mode(
+                    t,
+                    Mode::Decouple {
+                        pairs,
+                        wiggle,
+                        start: t,
+                    },
+                )
+            }
+            Behaviour::Disperse { goals, .. } => c.set_mode(t, Mode::Disperse { goals }),
+        }
+        Ok(())
+    }
+
+    fn done(&self, t: f64, start: f64, step: &Step, tick: &Tick) -> bool {
+        let c = &self.coordinator;
+        let elapsed = t - start;
+        match &step.behaviour {
+            Behaviour::Form { .. } => tick.complete,
+            Behaviour::Hold { duration_s } | Behaviour::Velocity { duration_s, .. } => {
+                elapsed >= *duration_s
+            }
+            Behaviour::GoTo { goal, tolerance } => match c.plan() {
+                Some(plan) => {
+                    let ids = &plan.slot_robot;
+                    let pts: Vec<Pose2> = ids.iter().filter_map(|&id| c.pose(id)).collect();
+                    if pts.is_empty() {
+                        return false;
+                    }
+                    let n = pts.len() as f64;
+                    let cx = pts.iter().map(|p| p.x).sum::<f64>() / n;
+                    let cy = pts.iter().map(|p| p.y).sum::<f64>() / n;
+                    (cx - goal.x).hypot(cy - goal.y) <= *tolerance
+                }
+                None => c
+                    .robot_ids()
+                    .iter()
+                    .filter_map(|&id| c.pose(id))
+                    .all(|p| (p.x - goal.x).hypot(p.y - goal.y) <= *tolerance),
+            },
+            Behaviour::Trajectory { trajectory } => elapsed >= trajectory.end_time(),
+            Behaviour::Rendezvous {
+                robots,
+                anti,
+                duration_s,
+                until_distance,
+                ..
+            } => {
+                if duration_s.is_some_and(|d| elapsed >= d) {
+                    return true;
+                }
+                let Some(limit) = until_distance else {
+                    return false;
+                };
+                let ids = robots.clone().unwrap_or_else(|| c.robot_ids());
+                let pts: Vec<Pose2> = ids.iter().filter_map(|&id| c.pose(id)).collect();
+                if pts.len() < 2 {
+                    return true;
+                }
+                pts.iter().enumerate().all(|(i, p)| {
+                    let nearest = pts
+                        .iter()
+                        .enumerate()
+                        .filter(|(j, _)| *j != i)
+                        .map(|(_, q)| p.distance(q))
+                        .fold(f64::INFINITY, f64::min);
+                    if *anti {
+                        nearest >= *limit
+                    } else {
+                        nearest <= *limit
+                    }
+                })
+            }
+            Behaviour::Decouple { .. } => match c.mode() {
+                Mode::Decouple { pairs, .. } => pairs.iter().all(|&i| {
+                    c.pairs()
+                        .get(i)
+                        .is_none_or(|p| p.status == crate::pair::PairStatus::Decoupled)
+                }),
+                _ => true,
+            },
+            Behaviour::Disperse { goals, tolerance } => goals.iter().all(|(id, g)| {
+                c.lost().contains(id)
+                    || c.pose(*id)
+                        .is_some_and(|p| (p.x - g.x).hypot(p.y - g.y) <= *tolerance)
+            }),
+        }
+    }
+
+    /// One control tick.
+    pub fn tick(&mut self, t: f64, robots: &[RobotState]) -> Tick {
+        if let RunState::Running { index } = self.state {
+            if self.step_start.is_none() {
+                self.step_start = Some(t);
+                if let Err(reason) = self.start(t, index, robots) {
+                    self.fail(t, index, reason);
+                }
+            }
+        }
+        let mut tick = self.coordinator.tick(t, robots);
+        if let RunState::Running { index } = self.state {
+            let step = self.scenario.steps[index].clone();
+            let start = self.step_start.unwrap_or(t);
+            if self.done(t, start, &step, &tick) {
+                self.coordinator
+                    .record(t, EventKind::StepFinished { index });
+                self.step_start = None;
+                self.state = if index + 1 < self.scenario.steps.len() {
+                    RunState::Running { index: index + 1 }
+                } else {
+                    self.coordinator.set_mode(t, Mode::Hold);
+                    RunState::Finished
+                };
+            } else if step.timeout_s.is_some_and(|to| t - start > to) {
+                self.fail(t, index, format!("step '{}' timed out", step.label));
+            }
+            // Events recorded after the coordinator's tick reach the caller now.
+            let late = self.coordinator.tick_events();
+            tick.events.extend(late);
+        }
+        tick
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use puzzlebot_params::RobotKind;
+
+    const GOOD: &str = r#"
+name = "demo"
+
+[[step]]
+form = { shape = "mesh", rows = 2 }
+timeout_s = 120
+
+[[step]]
+hold = { duration_s = 1.0 }
+
+[[step]]
+move = { velocity = [0.02, 0.0], duration_s = 2 }
+
+[[step]]
+move = { go_to = [0.5, 0.0, 90], tolerance = 0.01 }
+
+[[step]]
+label = "wiggle out"
+decouple = { v_bias = 0.02 }
+
+[[step]]
+anti_rendezvous = { until_distance = 0.1, gain = 0.3 }
+
+[[step]]
+move = { trajectory = [[0, 0, 0], [10, 0.5, 0]] }
+
+[[step]]
+disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 0.4 }] }
+"#;
+
+    fn parse(text: &str) -> Result<Scenario, ScenarioError> {
+        Scenario::from_toml_str(Path::new("run.toml"), text, &Geometry::default())
+    }
+
+    #[test]
+    fn good_scenario_parses() {
+        let s = parse(GOOD).unwrap();
+        assert_eq!(s.name, "demo");
+        assert_eq!(s.steps.len(), 8);
+        assert_eq!(
+            s.steps[0].behaviour,
+            Behaviour::Form {
+                spec: ShapeSpec::Mesh { rows: 2 },
+                heading: None
+            }
+        );
+        assert_eq!(s.steps[0].timeout_s, Some(120.0));
+        assert_eq!(s.steps[0].line, 4);
+        assert!(
+            matches!(s.steps[3].behaviour, Behaviour::GoTo { goal, tolerance } if (goal.yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12 && tolerance == 0.01)
+        );
+        assert_eq!(s.steps[4].label, "wiggle out");
+        match &s.steps[4].behaviour {
+            Behaviour::Decouple { wiggle, robots } => {
+                assert_eq!(wiggle.v_bias, 0.02);
+                assert!(robots.is_none());
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            s.steps[5].behaviour,
+            Behaviour::Rendezvous { anti: true, .. }
+        ));
+        match &s.steps[7].behaviour {
+            Behaviour::Disperse { goals, .. } => assert_eq!(goals.len(), 2),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn err(text: &str) -> String {
+        parse(text).expect_err("must fail").to_string()
+    }
+
+    #[test]
+    fn bad_scenarios_name_file_line_and_field() {
+        // Unknown field inside a behaviour: reported by the TOML parser with its line.
+        let e = err("[[step]]\nhold = { duration_s = 1 }\n\n[[step]]\nhold = { durations = 2 }\n");
+        assert!(
+            e.starts_with("run.toml:5:") && e.contains("durations"),
+            "{e}"
+        );
+        // Negative duration: the value's line.
+        let e = err("[[step]]\nhold = { duration_s = -1 }\n");
+        assert!(e.starts_with("run.toml:2:") && e.contains("≥ 0"), "{e}");
+        // Two behaviours in one step.
+        let e = err("[[step]]\nhold = { duration_s = 1 }\n[[step]]\nhold = { duration_s = 1 }\ndecouple = {}\n");
+        assert!(
+            e.starts_with("run.toml:3:") || e.starts_with("run.toml:4:"),
+            "{e}"
+        );
+        assert!(e.contains("step[1]") && e.contains("hold, decouple"), "{e}");
+        // Move with two modes.
+        let e = err("[[step]]\nmove = { velocity = [0.1, 0], go_to = [1, 1], duration_s = 1 }\n");
+        assert!(
+            e.starts_with("run.toml:2:") && e.contains("step[0].move"),
+            "{e}"
+        );
+        // Velocity without duration.
+        let e = err("[[step]]\nmove = { velocity = [0.1, 0] }\n");
+        assert!(e.contains("step[0].move.duration_s"), "{e}");
+        // Bad go_to arity.
+        let e = err("[[step]]\n\nmove = { go_to = [1] }\n");
+        assert!(
+            e.starts_with("run.toml:3:") && e.contains("move.go_to"),
+            "{e}"
+        );
+        // Missing shape file.
+        let e = err("[[step]]\nform = { shape = \"nope.toml\" }\n");
+        assert!(
+            e.starts_with("run.toml:2:") && e.contains("form.shape"),
+            "{e}"
+        );
+        // Unknown behaviour key.
+        let e = err("[[step]]\nfly = {}\n");
+        assert!(e.starts_with("run.toml:2:") && e.contains("fly"), "{e}");
+        // Trajectory times must increase.
+        let e = err("[[step]]\nmove = { trajectory = [[0, 0, 0], [0, 1, 0]] }\n");
+        assert!(
+            e.contains("move.trajectory[1]") && e.contains("increase"),
+            "{e}"
+        );
+        // No steps.
+        let e = err("name = \"x\"\n");
+        assert!(e.contains("step"), "{e}");
+    }
+
+    #[test]
+    fn runner_forms_holds_and_finishes() {
+        let text = "[[step]]\nform = { shape = \"line\" }\ntimeout_s = 5\n[[step]]\nhold = { duration_s = 0.5 }\n";
+        let s = parse(text).unwrap();
+        let mut r = ScenarioRunner::new(
+            s,
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        // Two robots already coupled in a line (1 in front, 2 behind).
+        let robots = vec![
+            RobotState {
+                id: 1,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(0.05, 0.0, 0.0),
+            },
+            RobotState {
+                id: 2,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(0.0, 0.0, 0.0),
+            },
+        ];
+        let mut t = 0.0;
+        while !matches!(r.state(), RunState::Finished | RunState::Failed { .. }) && t < 3.0 {
+            r.tick(t, &robots);
+            t += 0.1;
+        }
+        assert_eq!(r.state(), &RunState::Finished);
+        let ev = r.coordinator().events();
+        assert!(ev.iter().any(|e| e.kind == EventKind::FormationComplete));
+        assert_eq!(
+            ev.iter()
+                .filter(|e| matches!(e.kind, EventKind::StepFinished { .. }))
+                .count(),
+            2
+        );
+    }
+
+    #[test]
+    fn runner_fails_a_step_on_timeout() {
+        let text = "[[step]]\nform = { shape = \"line\" }\ntimeout_s = 0.5\n";
+        let s = parse(text).unwrap();
+        let mut r = ScenarioRunner::new(
+            s,
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        let robots = vec![
+            RobotState {
+                id: 1,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(0.5, 0.0, 0.0),
+            },
+            RobotState {
+                id: 2,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(0.0, 0.0, 0.0),
+            },
+        ];
+        for k in 0..10 {
+            r.tick(f64::from(k) * 0.1, &robots);
+        }
+        assert!(matches!(r.state(), RunState::Failed { index: 0, .. }));
+    }
+}
