@@ -1,1 +1,11 @@
-//! The PuzzleBot host daemon library and the `puzzlebot` binary.
+//! PuzzleBot host: fleet link, pose input, drive mapping, control loop, calibration,
+//! run folders and the `puzzlebot` CLI (DESIGN.md §3, §7).
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod drive;
+pub mod link;
+pub mod pose;
+pub mod control;
+pub mod report;

@@ -1,0 +1,646 @@
+//! The host control loop: a swappable [`Controller`] produces a (v, ω) per robot at its
+//! own rate (10 Hz for the MPC, 30 Hz for simple behaviours); the loop runs at the command
+//! rate (30 Hz, THESIS 4.4.3), estimates each robot's instant velocity from poses, runs the
+//! [`Stabiliser`] and streams wheel-speed targets over the [`FleetLink`]. Robots without a
+//! fresh pose, or offline, are stopped. Everything is recorded into a [`RunFolder`].
+//!
+//! Also here: reference trajectories (line, circle) and a trajectory-following
+//! controller (the demo's behaviour until assemblies land; THESIS 5.26 is the MPC version).
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use puzzlebot_params::{RobotKind, RobotParams};
+use puzzlebot_protocol::{messages::RobotId, HostMsg};
+use serde::Serialize;
+
+use crate::drive::{wrap_angle, DriveMap, PoseSample, Stabiliser, StabiliserGains, Twist, VelocityEstimator};
+use crate::link::FleetLink;
+use crate::pose::PoseTable;
+use crate::report::RunFolder;
+
+/// What a controller sees of one robot.
+#[derive(Debug, Clone, Copy)]
+pub struct RobotView {
+    /// Robot id.
+    pub id: RobotId,
+    /// Kind (from its announce).
+    pub kind: RobotKind,
+    /// Fresh pose, if any.
+    pub pose: Option<PoseSample>,
+    /// Velocity estimated from poses, if any.
+    pub velocity: Option<Twist>,
+}
+
+/// What a controller sees of the fleet at one tick.
+#[derive(Debug, Clone)]
+pub struct FleetView {
+    /// Host time (s).
+    pub t: f64,
+    /// Online robots with proven sessions.
+    pub robots: Vec<RobotView>,
+}
+
+/// A source of per-robot (v, ω) commands: trajectory following now; MPC and assembly
+/// behaviours plug in here.
+pub trait Controller: Send {
+    /// Short name (run folder, logs).
+    fn name(&self) -> &str;
+    /// How often [`Controller::update`] is called (Hz); commands are held in between.
+    fn rate_hz(&self) -> f64 {
+        30.0
+    }
+    /// Commands for some robots; robots left out are stopped.
+    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist>;
+    /// Where robot `id` should be at time `t` (s since the controller started), for
+    /// error metrics and plots.
+    fn reference(&self, _id: RobotId, _t: f64) -> Option<[f64; 2]> {
+        None
+    }
+    /// True when the behaviour has finished at time `t` (s since it started).
+    fn done(&self, t: f64) -> bool;
+}
+
+/// A reference path with a trapezoidal speed profile.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Path {
+    /// Straight segment from `start` along `heading` (rad) for `length` m.
+    Line {
+        /// Start point (m).
+        start: [f64; 2],
+        /// Heading (rad).
+        heading: f64,
+        /// Length (m).
+        length: f64,
+    },
+    /// Full circle of `radius` about `center`, starting at angle `phase` (rad), CCW if `ccw`.
+    Circle {
+        /// Centre (m).
+        center: [f64; 2],
+        /// Radius (m).
+        radius: f64,
+        /// Start angle on the circle (rad).
+        phase: f64,
+        /// Counter-clockwise.
+        ccw: bool,
+    },
+}
+
+/// A reference state: position, heading, speed and turn rate.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RefState {
+    /// Position x (m).
+    pub x: f64,
+    /// Position y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub theta: f64,
+    /// Speed (m/s).
+    pub v: f64,
+    /// Turn rate (rad/s).
+    pub omega: f64,
+}
+
+/// A path driven with a trapezoidal speed profile (accelerate, cruise, brake).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Trajectory {
+    /// The path.
+    pub path: Path,
+    /// Cruise speed (m/s).
+    pub speed: f64,
+    /// Acceleration (m/s²).
+    pub accel: f64,
+}
+
+impl Path {
+    /// Length (m).
+    pub fn length(&self) -> f64 {
+        match *self {
+            Path::Line { length, .. } => length,
+            Path::Circle { radius, .. } => 2.0 * std::f64::consts::PI * radius,
+        }
+    }
+
+    /// Pose at arc length `s`; curvature.
+    fn at(&self, s: f64) -> ([f64; 3], f64) {
+        match *self {
+            Path::Line { start, heading, .. } => (
+                [start[0] + s * heading.cos(), start[1] + s * heading.sin(), heading],
+                0.0,
+            ),
+            Path::Circle { center, radius, phase, ccw } => {
+                let dir = if ccw { 1.0 } else { -1.0 };
+                let a = phase + dir * s / radius;
+                (
+                    [
+                        center[0] + radius * a.cos(),
+                        center[1] + radius * a.sin(),
+                        wrap_angle(a + dir * std::f64::consts::FRAC_PI_2),
+                    ],
+                    dir / radius,
+                )
+            }
+        }
+    }
+
+    /// Start pose [x, y, θ].
+    pub fn start_pose(&self) -> [f64; 3] {
+        self.at(0.0).0
+    }
+}
+
+impl Trajectory {
+    /// Total duration (s).
+    pub fn duration(&self) -> f64 {
+        let len = self.path.length();
+        let ta = self.speed / self.accel;
+        let da = 0.5 * self.accel * ta * ta;
+        if 2.0 * da >= len {
+            2.0 * (len / self.accel).sqrt()
+        } else {
+            2.0 * ta + (len - 2.0 * da) / self.speed
+        }
+    }
+
+    /// Reference at time `t` (held at the end after the duration).
+    pub fn at(&self, t: f64) -> RefState {
+        let len = self.path.length();
+        let a = self.accel;
+        let total = self.duration();
+        let vpk = self.speed.min((a * len).sqrt());
+        let ta = vpk / a;
+        let t = t.clamp(0.0, total);
+        let (s, v) = if t < ta {
+            (0.5 * a * t * t, a * t)
+        } else if t > total - ta {
+            let r = total - t;
+            (len - 0.5 * a * r * r, a * r)
+        } else {
+            (0.5 * a * ta * ta + vpk * (t - ta), vpk)
+        };
+        let (p, kappa) = self.path.at(s);
+        RefState {
+            x: p[0],
+            y: p[1],
+            theta: p[2],
+            v,
+            omega: v * kappa,
+        }
+    }
+}
+
+/// Gains of the trajectory tracker.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrackerGains {
+    /// Along-track gain (1/s).
+    pub k_x: f64,
+    /// Cross-track natural frequency (rad/s).
+    pub omega_n: f64,
+    /// Cross-track damping ratio.
+    pub zeta: f64,
+}
+
+impl Default for TrackerGains {
+    fn default() -> Self {
+        TrackerGains {
+            k_x: 3.0,
+            omega_n: 3.0,
+            zeta: 0.9,
+        }
+    }
+}
+
+/// Kanayama-style unicycle tracking with reference feed-forward; cross-track gains are
+/// scheduled on the reference speed so the error dynamics keep their natural frequency.
+pub fn track(reference: RefState, pose: PoseSample, g: TrackerGains) -> Twist {
+    let (dx, dy) = (reference.x - pose.x, reference.y - pose.y);
+    let (s, c) = pose.theta.sin_cos();
+    let ex = c * dx + s * dy;
+    let ey = -s * dx + c * dy;
+    let eth = wrap_angle(reference.theta - pose.theta);
+    let vr = reference.v.abs().max(0.02);
+    let v = reference.v * eth.cos() + g.k_x * ex;
+    let omega = reference.omega + g.omega_n * g.omega_n / vr * ey * reference.v.signum().max(0.0)
+        + 2.0 * g.zeta * g.omega_n * eth.sin();
+    Twist::new(v, omega)
+}
+
+/// Each robot follows its own trajectory.
+#[derive(Debug, Clone)]
+pub struct TrajectoryFollower {
+    /// Trajectory per robot.
+    pub plans: BTreeMap<RobotId, Trajectory>,
+    /// Gains.
+    pub gains: TrackerGains,
+    /// Extra time after the longest trajectory before [`Controller::done`] (s).
+    pub settle: f64,
+    t0: Option<f64>,
+}
+
+impl TrajectoryFollower {
+    /// A follower for `plans`.
+    pub fn new(plans: BTreeMap<RobotId, Trajectory>) -> Self {
+        TrajectoryFollower {
+            plans,
+            gains: TrackerGains::default(),
+            settle: 0.5,
+            t0: None,
+        }
+    }
+
+    /// Longest trajectory (s).
+    pub fn duration(&self) -> f64 {
+        self.plans.values().map(Trajectory::duration).fold(0.0, f64::max)
+    }
+}
+
+impl Controller for TrajectoryFollower {
+    fn name(&self) -> &str {
+        "trajectory"
+    }
+
+    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
+        let t0 = *self.t0.get_or_insert(view.t);
+        let t = view.t - t0;
+        let mut out = BTreeMap::new();
+        for r in &view.robots {
+            if let (Some(plan), Some(pose)) = (self.plans.get(&r.id), r.pose) {
+                let rf = plan.at(t);
+                let cmd = if t >= plan.duration() + self.settle {
+                    Twist::ZERO
+                } else {
+                    track(rf, pose, self.gains)
+                };
+                out.insert(r.id, cmd);
+            }
+        }
+        out
+    }
+
+    fn reference(&self, id: RobotId, t: f64) -> Option<[f64; 2]> {
+        self.plans.get(&id).map(|p| {
+            let r = p.at(t);
+            [r.x, r.y]
+        })
+    }
+
+    fn done(&self, t: f64) -> bool {
+        t >= self.duration() + self.settle
+    }
+}
+
+/// Settings of one run of the control loop.
+#[derive(Debug, Clone)]
+pub struct LoopOptions {
+    /// Stop after this long even if the controller is not done (s).
+    pub max_duration: f64,
+    /// Stabiliser gains.
+    pub gains: StabiliserGains,
+    /// Window of the velocity estimator (s).
+    pub velocity_window: f64,
+    /// Use the stabiliser's feedback (false: feed-forward mapping only).
+    pub stabilise: bool,
+}
+
+impl Default for LoopOptions {
+    fn default() -> Self {
+        LoopOptions {
+            max_duration: 60.0,
+            gains: StabiliserGains::default(),
+            velocity_window: 0.12,
+            stabilise: true,
+        }
+    }
+}
+
+/// Per-robot tracking error statistics.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct TrackingStats {
+    /// Samples.
+    pub samples: u64,
+    /// Mean distance to the time-indexed reference (m).
+    pub mean_error: f64,
+    /// Largest distance (m).
+    pub max_error: f64,
+    /// Ticks the robot was stopped for lack of a fresh pose.
+    pub pose_stops: u64,
+}
+
+/// Result of a run of the control loop.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RunSummary {
+    /// Controller name.
+    pub controller: String,
+    /// Duration (s).
+    pub duration: f64,
+    /// Control ticks.
+    pub ticks: u64,
+    /// Tracking error per robot (only robots with a reference).
+    pub tracking: BTreeMap<RobotId, TrackingStats>,
+    /// Link statistics per robot at the end.
+    pub link: BTreeMap<RobotId, crate::link::LinkStats>,
+}
+
+impl RunSummary {
+    /// Mean of the robots' mean tracking errors (m).
+    pub fn mean_tracking_error(&self) -> f64 {
+        let n = self.tracking.len().max(1) as f64;
+        self.tracking.values().map(|s| s.mean_error).sum::<f64>() / n
+    }
+}
+
+/// One telemetry record per robot per tick.
+#[derive(Debug, Serialize)]
+struct TickRecord<'a> {
+    t: f64,
+    robot: RobotId,
+    pose: Option<[f64; 3]>,
+    truth: Option<[f64; 3]>,
+    reference: Option<[f64; 2]>,
+    desired: Option<Twist>,
+    measured: Option<Twist>,
+    wheel_target_rpm: Option<[f64; 2]>,
+    telemetry: Option<&'a puzzlebot_protocol::messages::Telemetry>,
+}
+
+/// Optional source of ground-truth positions (simulation): id → [x, y, θ].
+pub type TruthProbe = Box<dyn Fn() -> BTreeMap<RobotId, [f64; 3]> + Send>;
+
+/// The 30 Hz control loop over a link and a pose table.
+pub struct ControlLoop {
+    link: FleetLink,
+    poses: PoseTable,
+    params: Box<dyn Fn(RobotId, RobotKind) -> RobotParams + Send>,
+    /// Options.
+    pub options: LoopOptions,
+    /// Ground truth for error metrics (simulation); poses are used otherwise.
+    pub truth: Option<TruthProbe>,
+}
+
+struct PerRobot {
+    stab: Stabiliser,
+    est: VelocityEstimator,
+    last_pose_t: f64,
+    stats: TrackingStats,
+    err_sum: f64,
+    pose_lost: bool,
+}
+
+impl ControlLoop {
+    /// A loop driving the robots of `link` with poses from `poses`; `params` gives each
+    /// robot's parameter set (calibrated file or kind defaults).
+    pub fn new(
+        link: FleetLink,
+        poses: PoseTable,
+        params: impl Fn(RobotId, RobotKind) -> RobotParams + Send + 'static,
+    ) -> Self {
+        ControlLoop {
+            link,
+            poses,
+            params: Box::new(params),
+            options: LoopOptions::default(),
+            truth: None,
+        }
+    }
+
+    /// Run `controller` until it is done (or the time limit), recording into `folder`.
+    /// Every robot is stopped at the end.
+    pub async fn run(
+        &mut self,
+        controller: &mut dyn Controller,
+        mut folder: Option<&mut RunFolder>,
+        progress: Option<&indicatif::ProgressBar>,
+    ) -> RunSummary {
+        let rates = self.link.rates();
+        let hz = f64::from(rates.command_hz).clamp(1.0, 1000.0);
+        let dt = 1.0 / hz;
+        let stale = Duration::from_millis(u64::from(rates.pose_stale_after_ms));
+        let ctrl_period = 1.0 / controller.rate_hz().clamp(0.1, hz);
+        let mut tick = tokio::time::interval(Duration::from_secs_f64(dt));
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        let start = self.link.now();
+        let mut next_ctrl = start;
+        let mut desired: BTreeMap<RobotId, Twist> = BTreeMap::new();
+        let mut robots: BTreeMap<RobotId, PerRobot> = BTreeMap::new();
+        let mut summary = RunSummary {
+            controller: controller.name().to_string(),
+            ..RunSummary::default()
+        };
+        loop {
+            tick.tick().await;
+            let now = self.link.now();
+            let t = now - start;
+            if controller.done(t) || t > self.options.max_duration {
+                break;
+            }
+            summary.ticks += 1;
+            if let Some(pb) = progress {
+                pb.set_position((t * 10.0) as u64);
+            }
+            let statuses = self.link.statuses();
+            let online: Vec<_> = statuses.iter().filter(|s| s.online && s.established).collect();
+            let mut view = FleetView { t: now, robots: Vec::new() };
+            for s in &online {
+                let kind = s.kind.unwrap_or(RobotKind::NonPilot);
+                let r = robots.entry(s.id).or_insert_with(|| {
+                    let p = (self.params)(s.id, kind);
+                    PerRobot {
+                        stab: Stabiliser::new(DriveMap::from_params_or_geometric(&p), self.options.gains),
+                        est: VelocityEstimator::new(self.options.velocity_window),
+                        last_pose_t: f64::NEG_INFINITY,
+                        stats: TrackingStats::default(),
+                        err_sum: 0.0,
+                        pose_lost: false,
+                    }
+                });
+                let pose = self.poses.fresh(s.id, stale);
+                if let Some(p) = pose {
+                    if p.t > r.last_pose_t {
+                        r.est.push(p);
+                        r.last_pose_t = p.t;
+                    }
+                } else {
+                    r.est.clear();
+                }
+                view.robots.push(RobotView {
+                    id: s.id,
+                    kind,
+                    pose,
+                    velocity: r.est.estimate(),
+                });
+            }
+            if now >= next_ctrl {
+                desired = controller.update(&view);
+                next_ctrl += ctrl_period;
+                if next_ctrl < now {
+                    next_ctrl = now + ctrl_period;
+                }
+            }
+            let truth = self.truth.as_ref().map(|f| f());
+            for rv in &view.robots {
+                let Some(r) = robots.get_mut(&rv.id) else { continue };
+                let status = online.iter().find(|s| s.id == rv.id);
+                let want = desired.get(&rv.id).copied();
+                let mut wheels = None;
+                match (rv.pose, want) {
+                    (None, _) => {
+                        // Stale or missing pose: this robot stops (DESIGN.md §7).
+                        if !r.pose_lost {
+                            tracing::warn!(robot = rv.id, "pose stale or missing: stopping robot");
+                            if let Some(f) = folder.as_deref_mut() {
+                                let _ = f.event(&serde_json::json!({"t": now, "robot": rv.id, "event": "pose_lost"}));
+                            }
+                        }
+                        r.pose_lost = true;
+                        r.stats.pose_stops += 1;
+                        r.stab.reset();
+                        self.link.command(rv.id, HostMsg::Stop).await;
+                    }
+                    (Some(_), None) => {
+                        r.stab.reset();
+                        self.link.command(rv.id, HostMsg::Stop).await;
+                    }
+                    (Some(_), Some(w)) => {
+                        if r.pose_lost {
+                            r.pose_lost = false;
+                            if let Some(f) = folder.as_deref_mut() {
+                                let _ = f.event(&serde_json::json!({"t": now, "robot": rv.id, "event": "pose_back"}));
+                            }
+                        }
+                        let measured = if self.options.stabilise { rv.velocity } else { None };
+                        let wt = r.stab.step(w, measured, dt);
+                        wheels = Some([wt.left_rpm, wt.right_rpm]);
+                        self.link
+                            .command(
+                                rv.id,
+                                HostMsg::WheelSpeed {
+                                    left_rpm: wt.left_rpm as f32,
+                                    right_rpm: wt.right_rpm as f32,
+                                },
+                            )
+                            .await;
+                    }
+                }
+                let reference = controller.reference(rv.id, t);
+                let tru = truth.as_ref().and_then(|m| m.get(&rv.id).copied());
+                let actual = tru.or(rv.pose.map(|p| [p.x, p.y, p.theta]));
+                if let (Some(rf), Some(a)) = (reference, actual) {
+                    let e = ((rf[0] - a[0]).powi(2) + (rf[1] - a[1]).powi(2)).sqrt();
+                    r.stats.samples += 1;
+                    r.err_sum += e;
+                    r.stats.max_error = r.stats.max_error.max(e);
+                }
+                let telemetry = status.and_then(|s| s.telemetry.as_ref());
+                if let Some(f) = folder.as_deref_mut() {
+                    let _ = f.telemetry(&TickRecord {
+                        t: now,
+                        robot: rv.id,
+                        pose: rv.pose.map(|p| [p.x, p.y, p.theta]),
+                        truth: tru,
+                        reference,
+                        desired: want,
+                        measured: rv.velocity,
+                        wheel_target_rpm: wheels,
+                        telemetry,
+                    });
+                    let tr = f.traces.entry(rv.id).or_default();
+                    if let Some(a) = actual {
+                        tr.actual.push((t, a[0], a[1]));
+                    }
+                    if let Some(rf) = reference {
+                        tr.reference.push((t, rf[0], rf[1]));
+                    }
+                    if let Some(tm) = telemetry {
+                        tr.wheels.push((
+                            t,
+                            f64::from(tm.target_rpm[0]),
+                            f64::from(tm.target_rpm[1]),
+                            f64::from(tm.measured_rpm[0]),
+                            f64::from(tm.measured_rpm[1]),
+                        ));
+                    }
+                }
+            }
+            if let Some(f) = folder.as_deref_mut() {
+                for e in self.link.drain_events() {
+                    let _ = f.event(&e);
+                }
+            }
+        }
+        self.link.stop_all().await;
+        summary.duration = self.link.now() - start;
+        for (id, r) in robots {
+            let mut s = r.stats;
+            if s.samples > 0 {
+                s.mean_error = r.err_sum / s.samples as f64;
+                summary.tracking.insert(id, s);
+            }
+        }
+        for s in self.link.statuses() {
+            summary.link.insert(s.id, s.stats);
+        }
+        summary
+    }
+}
+
+impl DriveMap {
+    /// The mapping the control loop uses: calibrated gains when the robot's parameter set
+    /// carries gains in wheel-RPM units that pass validation and are within a factor of
+    /// two of THESIS (2.1)–(2.2); otherwise the geometric gains of (2.1)–(2.2) (the THESIS
+    /// 3.5.1 defaults are in PWM units of the v2 robots, not RPM).
+    pub fn from_params_or_geometric(p: &RobotParams) -> DriveMap {
+        let cal = DriveMap::from_params(p);
+        let geo = DriveMap::geometric(p);
+        let near = |a: f64, b: f64| a > b / 2.0 && a < b * 2.0;
+        if cal.validate().is_ok() && near(cal.k_v, geo.k_v) && near(cal.k_omega, geo.k_omega) {
+            cal
+        } else {
+            geo
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trajectory_profile_reaches_the_end_with_feed_forward() {
+        let tr = Trajectory {
+            path: Path::Circle { center: [0.0, 0.0], radius: 0.1, phase: -std::f64::consts::FRAC_PI_2, ccw: true },
+            speed: 0.05,
+            accel: 0.1,
+        };
+        let d = tr.duration();
+        assert!((d - (2.0 * std::f64::consts::PI * 0.1 / 0.05 + 0.5)).abs() < 1e-9, "{d}");
+        let s0 = tr.at(0.0);
+        assert!((s0.x - 0.0).abs() < 1e-12 && (s0.y + 0.1).abs() < 1e-12 && s0.theta.abs() < 1e-12);
+        let mid = tr.at(d / 2.0);
+        assert!((mid.omega - 0.5).abs() < 1e-9 && (mid.v - 0.05).abs() < 1e-9);
+        let end = tr.at(d + 1.0);
+        assert!(end.v.abs() < 1e-12 && (end.y + 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn tracker_converges_on_an_ideal_unicycle() {
+        let tr = Trajectory {
+            path: Path::Line { start: [0.0, 0.0], heading: 0.3, length: 0.4 },
+            speed: 0.06,
+            accel: 0.1,
+        };
+        // Start 1 cm off the line and 0.1 rad off heading.
+        let mut p = PoseSample { t: 0.0, x: 0.0, y: 0.01, theta: 0.4 };
+        let dt = 1.0 / 30.0;
+        let mut err = 0.0;
+        while p.t < tr.duration() {
+            let u = track(tr.at(p.t), p, TrackerGains::default());
+            p.x += u.v * p.theta.cos() * dt;
+            p.y += u.v * p.theta.sin() * dt;
+            p.theta += u.omega * dt;
+            p.t += dt;
+            let r = tr.at(p.t);
+            err = ((r.x - p.x).powi(2) + (r.y - p.y).powi(2)).sqrt();
+        }
+        assert!(err < 1e-3, "final error {err}");
+    }
+}
