@@ -291,25 +291,33 @@ mod tests {
         assert!((mid.kp - 4.0).abs() < 1e-5 && (mid.ki - 50.0).abs() < 1e-4);
     }
 
-    /// Step response from rest: settling time to ±2 % and overshoot, on the nominal model
-    /// and on motors 10 % weaker / stronger than the feed-forward assumes.
+    /// Step response from rest: settling time to ±2 % and overshoot, on the nominal model,
+    /// on motors 10 % weaker / stronger than the feed-forward assumes, and on motors with
+    /// time constants of 20 and 45 ms instead of 30 ms.
     #[test]
     fn pi_step_responses_settle_within_300ms() {
         for &target in &[100.0f32, 250.0, 450.0, -250.0] {
-            for &gain_factor in &[1.0f32, 0.9, 1.1] {
+            for &(gain_factor, tau_s) in &[
+                (1.0f32, 0.030f32),
+                (0.9, 0.030),
+                (1.1, 0.030),
+                (1.0, 0.020),
+                (1.0, 0.045),
+            ] {
                 let motor = MotorModel {
                     no_load_rpm: MotorModel::default().no_load_rpm * gain_factor,
+                    tau_s,
                     ..MotorModel::default()
                 };
                 let r = ClosedLoop::new(Firmware::default(), motor).step_response(target, 1.0);
                 assert!(
                     r.settle_s <= 0.300,
-                    "target {target} x{gain_factor}: settled after {} s",
+                    "target {target} x{gain_factor} tau {tau_s}: settled after {} s",
                     r.settle_s
                 );
                 assert!(
                     r.overshoot < 0.10,
-                    "target {target} x{gain_factor}: overshoot {}",
+                    "target {target} x{gain_factor} tau {tau_s}: overshoot {}",
                     r.overshoot
                 );
             }

@@ -500,3 +500,20 @@ mod fuzz {
         }
     }
 }
+
+#[test]
+fn raw_duty_also_falls_to_the_failsafe() {
+    let mut l = Link::new();
+    l.send(&HostMsg::RawDuty {
+        left: 500,
+        right: 500,
+    })
+    .unwrap();
+    let start = l.now;
+    let timeout = u64::from(Firmware::default().failsafe_timeout_ms) * 1000;
+    while l.now < start + timeout {
+        assert!(!l.tick().is_stopped() || l.now >= start + timeout);
+    }
+    assert_eq!(l.robot.status().mode, DriveMode::Stopped);
+    assert_ne!(l.robot.status().flags & flags::FAILSAFE, 0);
+}
