@@ -1,0 +1,165 @@
+//! PuzzleBot adapter: a rigid mesh advancing over a gap edge stops at the centre-of-mass bound.
+
+use puzzlebot_params::terrain::{Platform, Terrain};
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_stability::puzzlebot::*;
+use puzzlebot_stability::{evaluate, Verdict};
+
+fn params() -> FleetParams {
+    let mut p = FleetParams::default();
+    // Centre of mass a little ahead of the wheel axle (keeps the geometry non-degenerate).
+    p.non_pilot.mass.com = [0.005, 0.0];
+    p.pilot.mass.com = [0.005, 0.0];
+    p
+}
+
+fn np(x: f64, y: f64) -> RobotPose {
+    RobotPose {
+        kind: RobotKind::NonPilot,
+        x,
+        y,
+        yaw: 0.0,
+    }
+}
+
+/// Platform ending at x = `edge`, nothing beyond (a wide gap).
+fn cliff(edge: f64) -> Terrain {
+    Terrain {
+        platforms: vec![Platform::rect("near", [-2.0, -1.0], [edge, 1.0], 0.0)],
+    }
+}
+
+/// The centre-of-mass bound for a rigid assembly heading +x towards an edge at `edge`: it may
+/// advance until the first contact at or ahead of the centre of mass reaches the edge.
+fn com_bound(a: &PuzzleAssembly, p: &FleetParams, edge: f64) -> f64 {
+    let mut mass = 0.0;
+    let mut cx = 0.0;
+    let mut xs = vec![];
+    for r in &a.robots {
+        let rp = p.robot(r.kind);
+        mass += rp.mass.mass as f64;
+        cx += rp.mass.mass as f64 * (r.x + rp.mass.com[0] as f64);
+        for (b, _) in contact_points(r.kind, p) {
+            xs.push(r.x + b[0]);
+        }
+    }
+    cx /= mass;
+    let ahead = xs
+        .into_iter()
+        .filter(|x| *x >= cx)
+        .fold(f64::INFINITY, f64::min);
+    edge - ahead
+}
+
+#[test]
+fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
+    let p = params();
+    // Three robots side by side, joined by knobs.
+    let a = PuzzleAssembly {
+        robots: vec![np(0.0, 0.0), np(0.0, 0.05), np(0.0, 0.10)],
+        pairs: vec![
+            Pair { a: 0, b: 1, kind: PairKind::Knob },
+            Pair { a: 1, b: 2, kind: PairKind::Knob },
+        ],
+    };
+    let edge = 0.3;
+    let opt = AdvanceOptions {
+        rigid_couplings: true,
+        horizon: 1.0,
+    };
+    let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
+    let bound = com_bound(&a, &p, edge);
+    assert!((bound - 0.28).abs() < 1e-9);
+    assert!((adv.distance - bound).abs() < 1e-5, "{adv:?} vs {bound}");
+    assert_eq!(adv.limited_by, LimitedBy::Tips);
+}
+
+#[test]
+fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
+    let p = params();
+    let back = -0.057; // anchor head (−0.032) into the opening (+0.025) of the robot behind
+    let a = PuzzleAssembly {
+        robots: vec![np(0.0, 0.0), np(0.0, 0.05), np(back, 0.0), np(back, 0.05)],
+        pairs: vec![
+            Pair { a: 0, b: 1, kind: PairKind::Knob },
+            Pair { a: 2, b: 3, kind: PairKind::Knob },
+            Pair { a: 0, b: 2, kind: PairKind::Anchor },
+            Pair { a: 1, b: 3, kind: PairKind::Anchor },
+        ],
+    };
+    let edge = 0.2;
+    let opt = AdvanceOptions {
+        rigid_couplings: true,
+        horizon: 1.0,
+    };
+    let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
+    let bound = com_bound(&a, &p, edge);
+    assert!((adv.distance - bound).abs() < 1e-5, "{adv:?} vs {bound}");
+    assert_eq!(adv.limited_by, LimitedBy::Tips);
+
+    // With the measured coupling limits the advance can only be shorter, never longer.
+    let measured = max_safe_advance(&a, &p, &cliff(edge), 0.0, 0.01).unwrap();
+    assert!(measured.distance <= adv.distance + 1e-9, "{measured:?}");
+}
+
+#[test]
+fn flat_floor_reaches_the_horizon_and_a_step_up_blocks() {
+    let p = params();
+    let a = PuzzleAssembly {
+        robots: vec![np(0.0, 0.0), np(0.0, 0.05)],
+        pairs: vec![Pair { a: 0, b: 1, kind: PairKind::Knob }],
+    };
+    let adv = max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.05).unwrap();
+    assert_eq!(adv.limited_by, LimitedBy::Horizon);
+    let mut t = cliff(0.5);
+    t.platforms.push(Platform::rect("wall", [0.5, -1.0], [1.0, 1.0], 0.05));
+    let adv = max_safe_advance(&a, &p, &t, 0.0, 0.05).unwrap();
+    assert!(matches!(adv.limited_by, LimitedBy::StepUp { .. }), "{adv:?}");
+    assert!((adv.distance - (0.5 - 0.02)).abs() < 1e-5, "{adv:?}");
+}
+
+#[test]
+fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
+    // A line of robots heading +x, joined anchor to opening, pushed over a cliff: the front
+    // robots hang from the anchors, which hold ≈ 4.9 N but only a small bending couple.
+    let p = params();
+    let robots: Vec<RobotPose> = (0..6).map(|i| np(-0.057 * i as f64, 0.0)).collect();
+    let pairs = (0..5)
+        .map(|i| Pair { a: i, b: i + 1, kind: PairKind::Anchor })
+        .collect();
+    let a = PuzzleAssembly { robots, pairs };
+    let measured = max_safe_advance(&a, &p, &cliff(0.1), 0.0, 0.01).unwrap();
+    let rigid = max_safe_advance_with(
+        &a,
+        &p,
+        &cliff(0.1),
+        0.0,
+        0.01,
+        AdvanceOptions { rigid_couplings: true, horizon: 1.0 },
+    )
+    .unwrap();
+    assert_eq!(rigid.limited_by, LimitedBy::Tips);
+    assert!(measured.distance < rigid.distance, "{measured:?} vs {rigid:?}");
+    match &measured.limited_by {
+        LimitedBy::Connection { pairs } => assert!(!pairs.is_empty(), "{pairs:?}"),
+        other => panic!("expected a connection limit, got {other:?}"),
+    }
+    // At rest on the floor the chain is stable with a positive margin.
+    let m = build_model(&a, &p, &Terrain::flat(), 0.0, [0.0, 0.0], false).unwrap();
+    let r = evaluate(&m).unwrap();
+    assert_eq!(r.verdict, Verdict::Stable);
+    assert!(r.margin.unwrap() > 0.0);
+}
+
+#[test]
+fn bad_pairs_are_rejected() {
+    let p = params();
+    let a = PuzzleAssembly {
+        robots: vec![np(0.0, 0.0)],
+        pairs: vec![Pair { a: 0, b: 3, kind: PairKind::Knob }],
+    };
+    assert_eq!(
+        max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.01).unwrap_err(),
+        AdapterError::BadPair(0)
+    );
+}
