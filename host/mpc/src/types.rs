@@ -197,7 +197,7 @@ pub struct StageWeights {
 impl Default for StageWeights {
     fn default() -> Self {
         StageWeights {
-            stage: 1.0e3,
+            stage: 1.0e2,
             terminal: 1.0e4,
         }
     }
@@ -371,7 +371,7 @@ impl Default for MpcConfig {
             w_damping: [1e-2, 1e-4],
             w_maintain: 1.0e3,
             maintain_heading: 1e-4,
-            constraint_margin: 0.5e-3,
+            constraint_margin: 1.0e-3,
             sqp_iterations: 1,
             max_fallback_ticks: 3,
             neighbours: NeighbourModel::Predicted,

@@ -1,0 +1,313 @@
+//! Closed-loop runs against an exact unicycle (simulated here, 10 sub-steps per tick).
+
+use puzzlebot_mpc::*;
+use puzzlebot_params::{drive::Drive, RobotKind};
+
+fn limits() -> Limits {
+    Limits::from_drive(&Drive::for_kind(RobotKind::NonPilot))
+}
+
+/// Exact-enough unicycle: 10 Euler sub-steps of dt/10.
+fn simulate(p: Pose, u: Command, dt: f64) -> Pose {
+    let mut x = p;
+    for _ in 0..10 {
+        x = x.step(u, dt / 10.0);
+    }
+    x
+}
+
+fn robot(id: RobotId, pose: Pose, costs: Vec<CostTerm>) -> RobotInput {
+    RobotInput {
+        id,
+        pose,
+        limits: limits(),
+        costs,
+    }
+}
+
+/// Nonlinear coupling constraints (no margin) between actual poses; returns the worst
+/// value (≤ 0 when all hold): point-in-polygon (THESIS 5.9) and cutting planes (5.17–5.18).
+fn coupling_violation(g: &GeometryF64, anchor: &Pose, opening: &Pose) -> f64 {
+    let mut worst = f64::NEG_INFINITY;
+    let head = opening.inverse_transform_point(anchor.transform_point(g.anchor_head));
+    let poly = &g.anchor_polygon;
+    for e in 0..poly.len() {
+        let (a, b) = (poly[e], poly[(e + 1) % poly.len()]);
+        let n = [b[1] - a[1], -(b[0] - a[0])];
+        let len = n[0].hypot(n[1]);
+        worst = worst.max((n[0] * (head[0] - a[0]) + n[1] * (head[1] - a[1])) / len);
+    }
+    let (hl, hw) = (0.5 * g.length, 0.5 * g.width);
+    for sy in [-1.0, 1.0] {
+        // Opening robot's front corners behind the anchor robot's back face (5.17).
+        let c = anchor.inverse_transform_point(opening.transform_point([hl, sy * hw]));
+        worst = worst.max(c[0] + hl);
+        // Anchor robot's back corners ahead of the opening robot's front face (5.18).
+        let c = opening.inverse_transform_point(anchor.transform_point([-hl, sy * hw]));
+        worst = worst.max(hl - c[0]);
+    }
+    worst
+}
+
+fn align_task(partner: RobotId) -> CostTerm {
+    let g = MpcConfig::default().geometry;
+    CostTerm::AlignPair {
+        partner,
+        own: ConnectionPoint {
+            pos: g.anchor_head,
+            angle: 0.0,
+        },
+        partner_point: ConnectionPoint {
+            pos: g.anchor_opening,
+            angle: 0.0,
+        },
+        // Small stage, large terminal weight (THESIS 5.4.4); the heading term (4.5) at
+        // 1e-2: 0.1 rad weighs like 5 mm.
+        weights: StageWeights {
+            stage: 1.0e2,
+            terminal: 1.0e4,
+        },
+        heading: 1.0e-2,
+    }
+}
+
+/// THESIS 5.2.3: a robot starts 0.08–0.16 m ahead of its partner and 0–0.08 m aside with
+/// zero heading, and aligns its anchor head with the partner's opening: within 3.5 mm
+/// (THESIS 5.2.3) and within the anchor's yaw range ±0.5 rad (THESIS 4.2.2).
+#[test]
+fn alignment_from_25_start_poses() {
+    let g = MpcConfig::default().geometry;
+    let coupling = puzzlebot_params::coupling::Coupling::default();
+    let tol = f64::from(coupling.anchor_align_tolerance);
+    let yaw = f64::from(coupling.anchor_yaw_range);
+    let mut times = Vec::new();
+    let mut worst_yaw: f64 = 0.0;
+    for ix in 0..5 {
+        for iy in 0..5 {
+            let x = 0.08 + 0.02 * f64::from(ix);
+            let y = 0.02 * f64::from(iy);
+            let mut mpc = DistributedMpc::with_threads(MpcConfig::default(), 1).unwrap();
+            let partner = Pose::new(0.0, 0.0, 0.0);
+            let mut me = Pose::new(x, y, 0.0);
+            let mut done = None;
+            for t in 0..400 {
+                let robots = [robot(1, me, vec![align_task(2)]), robot(2, partner, vec![])];
+                let out = mpc.tick(&robots, &[]).unwrap();
+                let r = &out.robots[0];
+                assert!(
+                    limits().contains(r.command, OUTPUT_TOLERANCE),
+                    "unchecked command {:?}",
+                    r.command
+                );
+                me = simulate(me, r.command, 0.1);
+                let head = me.transform_point(g.anchor_head);
+                let opening = partner.transform_point(g.anchor_opening);
+                let d = (head[0] - opening[0]).hypot(head[1] - opening[1]);
+                let dth = (me.theta - partner.theta).sin().abs().asin();
+                if d <= tol && dth < yaw {
+                    worst_yaw = worst_yaw.max(dth);
+                    done = Some(t + 1);
+                    break;
+                }
+            }
+            let ticks = done.unwrap_or_else(|| {
+                panic!("start ({x:.2}, {y:.2}): not aligned in 40 s, ended at {me:?}")
+            });
+            times.push(f64::from(ticks) * 0.1);
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    eprintln!(
+        "alignment times (s): median {:.1}, max {:.1}; worst heading at alignment {worst_yaw:.3} rad",
+        times[12], times[24]
+    );
+}
+
+/// Two coupled robots (anchor robot in front) turn on an arc and then translate: the
+/// leader follows a trajectory (5.26), the other follows it (5.25); the polygon and
+/// cutting-plane constraints must hold at every step on the true poses.
+fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
+    let cfg = MpcConfig {
+        neighbours,
+        ..MpcConfig::default()
+    };
+    let g = cfg.geometry.clone();
+    let h = cfg.horizon;
+    let mut mpc = DistributedMpc::with_threads(cfg, 2).unwrap();
+    let mut front = Pose::new(0.054, 0.0, 0.0);
+    let mut back = Pose::new(0.0, 0.0, 0.0);
+    let pairs = [CoupledPair {
+        anchor_robot: 1,
+        opening_robot: 2,
+    }];
+    assert!(coupling_violation(&g, &front, &back) < 0.0);
+    // Reference: 12 s on an arc of radius 0.6 m at 0.04 m/s, then 8 s straight.
+    let (r, v) = (0.6, 0.04);
+    let reference = |t: f64| -> Pose {
+        let t_arc = 12.0;
+        if t <= t_arc {
+            let a = v * t / r;
+            Pose::new(0.054 + r * a.sin(), r * (1.0 - a.cos()), a)
+        } else {
+            let a = v * t_arc / r;
+            let p0 = Pose::new(0.054 + r * a.sin(), r * (1.0 - a.cos()), a);
+            let s = v * (t - t_arc);
+            Pose::new(p0.x + s * a.cos(), p0.y + s * a.sin(), a)
+        }
+    };
+    let mut worst = f64::NEG_INFINITY;
+    for step in 0..200 {
+        let t = f64::from(step) * 0.1;
+        let refs: Vec<Pose> = (0..=h).map(|k| reference(t + 0.1 * k as f64)).collect();
+        let robots = [
+            robot(
+                1,
+                front,
+                vec![CostTerm::FollowTrajectory {
+                    reference: refs,
+                    weights: StageWeights {
+                        stage: 1.0e3,
+                        terminal: 1.0e4,
+                    },
+                    heading: 1.0e-3,
+                }],
+            ),
+            robot(
+                2,
+                back,
+                vec![CostTerm::FollowLeader {
+                    leader: 1,
+                    offset: Pose::new(-0.054, 0.0, 0.0),
+                    weights: StageWeights {
+                        stage: 1.0e2,
+                        terminal: 1.0e3,
+                    },
+                    heading: 1.0e-3,
+                }],
+            ),
+        ];
+        let out = mpc.tick(&robots, &pairs).unwrap();
+        for o in &out.robots {
+            if must_track {
+                assert!(
+                    o.status.is_solved(),
+                    "step {step}: robot {} {:?}",
+                    o.id,
+                    o.status
+                );
+            }
+            assert!(limits().contains(o.command, OUTPUT_TOLERANCE));
+        }
+        front = simulate(front, out.robots[0].command, 0.1);
+        back = simulate(back, out.robots[1].command, 0.1);
+        let viol = coupling_violation(&g, &front, &back);
+        assert!(
+            viol <= 0.0,
+            "step {step}: coupling constraint violated by {viol} m; front {front:?} back {back:?}"
+        );
+        worst = worst.max(viol);
+    }
+    let end = reference(20.0);
+    eprintln!("{neighbours:?}: front ended at {front:?}, reference {end:?}");
+    if !must_track {
+        return worst;
+    }
+    // The pair really turned and moved.
+    assert!(
+        (front.theta - end.theta).abs() < 0.15,
+        "front heading {} vs {}",
+        front.theta,
+        end.theta
+    );
+    assert!(
+        (front.x - end.x).hypot(front.y - end.y) < 0.03,
+        "front {front:?} vs reference {end:?}"
+    );
+    worst
+}
+
+#[test]
+fn coupled_pair_turns_and_translates_predicted_neighbours() {
+    let worst = coupled_run(NeighbourModel::Predicted, true);
+    eprintln!("predicted: worst constraint value {worst:.5} m");
+}
+
+/// THESIS's frozen neighbours: the constraints must still hold at every step (the pair
+/// lags the reference, and solves may fail and fall back: that is the comparison).
+#[test]
+fn coupled_pair_turns_and_translates_frozen_neighbours() {
+    let worst = coupled_run(NeighbourModel::Frozen, false);
+    eprintln!("frozen: worst constraint value {worst:.5} m");
+}
+
+/// An infeasible problem (a coupled partner teleported 0.5 m away: no input reaches the
+/// polygon within one step): the robot holds its last plan for `max_fallback_ticks`, then
+/// stops; every command is checked.
+#[test]
+fn infeasible_problem_falls_back_then_stops() {
+    let cfg = MpcConfig::default();
+    let max_fb = cfg.max_fallback_ticks;
+    let mut mpc = DistributedMpc::with_threads(cfg, 1).unwrap();
+    let pairs = [CoupledPair {
+        anchor_robot: 1,
+        opening_robot: 2,
+    }];
+    let mut front = Pose::new(0.054, 0.0, 0.0);
+    let back = Pose::new(0.0, 0.0, 0.0);
+    let go = vec![CostTerm::FitVelocity {
+        target: Command::new(0.03, 0.0),
+        w_v: 1.0e3,
+        w_omega: 1.0,
+    }];
+    for _ in 0..5 {
+        let out = mpc
+            .tick(
+                &[robot(1, front, go.clone()), robot(2, back, go.clone())],
+                &pairs,
+            )
+            .unwrap();
+        assert!(out.robots.iter().all(|o| o.status.is_solved()));
+        front = simulate(front, out.robots[0].command, 0.1);
+    }
+    let held = mpc.plan(2).unwrap().to_vec();
+    let far = Pose::new(0.6, 0.0, 0.0);
+    for t in 1..=max_fb + 2 {
+        let out = mpc
+            .tick(&[robot(1, far, vec![]), robot(2, back, go.clone())], &pairs)
+            .unwrap();
+        let o = &out.robots[1];
+        assert!(limits().contains(o.command, OUTPUT_TOLERANCE));
+        if t <= max_fb {
+            match &o.status {
+                SolveStatus::Fallback { ticks, reason } => {
+                    assert_eq!(*ticks, t);
+                    assert!(
+                        reason.contains("Infeasible") || reason.contains("status"),
+                        "{reason}"
+                    );
+                }
+                s => panic!("tick {t}: expected fallback, got {s:?}"),
+            }
+            assert_eq!(
+                o.command, held[t as usize],
+                "fallback must replay the held plan"
+            );
+        } else {
+            assert!(
+                matches!(o.status, SolveStatus::Stopped { .. }),
+                "tick {t}: {:?}",
+                o.status
+            );
+            assert_eq!(o.command, Command::STOP);
+        }
+    }
+    // Back to a feasible situation: solving resumes.
+    let out = mpc
+        .tick(&[robot(1, front, vec![]), robot(2, back, vec![])], &pairs)
+        .unwrap();
+    assert!(
+        out.robots[1].status.is_solved(),
+        "{:?}",
+        out.robots[1].status
+    );
+}
