@@ -540,3 +540,51 @@ mod tests {
         ));
     }
 }
+
+#[cfg(test)]
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Any fleet of 2–9 scattered robots gets a spanning tree of pairs over all robots,
+        /// each robot in exactly one slot, and pairs in non-decreasing distance order.
+        #[test]
+        fn plans_are_spanning_trees(
+            pts in proptest::collection::vec((-1.0f64..1.0, -1.0f64..1.0, -3.0f64..3.0), 2..10),
+            mesh in any::<bool>(),
+        ) {
+            let g = Geometry::default();
+            let robots: Vec<RobotState> = pts.iter().enumerate().map(|(i, &(x, y, yaw))| RobotState {
+                id: i as RobotId * 3 + 1,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(x, y, yaw),
+            }).collect();
+            let spec = if mesh { ShapeSpec::Mesh { rows: 2 } } else { ShapeSpec::Line };
+            let plan = assign_connection_pairs(&spec, &robots, None, &g).unwrap();
+            let n = robots.len();
+            prop_assert_eq!(plan.pairs.len(), n - 1);
+            let mut ids = plan.slot_robot.clone();
+            ids.sort_unstable();
+            ids.dedup();
+            prop_assert_eq!(ids.len(), n);
+            // Union-find: the pairs connect every robot.
+            let mut parent: std::collections::HashMap<RobotId, RobotId> = plan.slot_robot.iter().map(|&r| (r, r)).collect();
+            fn find(p: &mut std::collections::HashMap<RobotId, RobotId>, x: RobotId) -> RobotId {
+                let mut x = x;
+                while p[&x] != x { x = p[&x]; }
+                x
+            }
+            for pp in &plan.pairs {
+                let (a, b) = (find(&mut parent, pp.a), find(&mut parent, pp.b));
+                prop_assert_ne!(a, b, "pairs must not form a cycle");
+                parent.insert(a, b);
+            }
+            for w in plan.pairs.windows(2) {
+                prop_assert!(distance_bucket(w[0].centre_distance) <= distance_bucket(w[1].centre_distance));
+            }
+        }
+    }
+}

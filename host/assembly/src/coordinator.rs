@@ -26,7 +26,8 @@ pub enum Role {
     Wait,
     /// Segment leader aligning a connection pair (THESIS (4.5), (5.19)): bring `own_point`
     /// (body frame) onto the partner's `partner_point` (its body frame), with own yaw minus
-    /// partner yaw → `relative_yaw`.
+    /// partner yaw → `relative_yaw`. For `puzzlebot_mpc::CostTerm::AlignPair`: own point
+    /// angle 0, partner point angle `relative_yaw`.
     Align {
         /// Index of the pair in [`Coordinator::pairs`].
         pair: usize,
@@ -43,10 +44,14 @@ pub enum Role {
         /// Current status of the pair (the phase).
         phase: PairStatus,
     },
-    /// Follow the segment leader (THESIS (5.25)): copy its goal with a smaller weight.
+    /// Follow the segment leader (THESIS (5.25)): stay at `offset` in the leader's body frame
+    /// (`puzzlebot_mpc::CostTerm::FollowLeader`), with a smaller weight than the leader's.
     Follow {
         /// Leader of this robot's segment.
         leader: RobotId,
+        /// This robot's pose in the leader's body frame: from the planned shape when both are
+        /// in the plan, else as measured.
+        offset: Pose2,
     },
     /// Fit a velocity command (THESIS (4.7)).
     Velocity {
@@ -800,7 +805,8 @@ impl Coordinator {
                 if m == leader {
                     roles.insert(m, (role.clone(), Some(leader)));
                 } else {
-                    roles.insert(m, (Role::Follow { leader }, Some(leader)));
+                    let offset = self.follow_offset(m, leader);
+                    roles.insert(m, (Role::Follow { leader, offset }, Some(leader)));
                 }
             }
         };
@@ -940,6 +946,19 @@ impl Coordinator {
             })
             .collect();
         (tasks, active)
+    }
+
+    /// Pose of `member` in `leader`'s body frame: planned when both are in the plan.
+    fn follow_offset(&self, member: RobotId, leader: RobotId) -> Pose2 {
+        if let Some(plan) = &self.plan {
+            if let (Some(m), Some(l)) = (plan.slot_of(member), plan.slot_of(leader)) {
+                return plan.shape.slots[l].pose.relative(&plan.shape.slots[m].pose);
+            }
+        }
+        match (self.robots.get(&leader), self.robots.get(&member)) {
+            (Some(l), Some(m)) => l.pose.relative(&m.pose),
+            _ => Pose2::default(),
+        }
     }
 
     /// Goal of a segment leader when the shape centre should be at `goal`: its slot placed at
@@ -1209,7 +1228,17 @@ mod tests {
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
         assert_eq!(leaders.len(), 1, "one segment, one leader");
         assert!(matches!(role_of(&tick, 1), Role::Velocity { .. }));
-        assert_eq!(role_of(&tick, 2), &Role::Follow { leader: 1 });
+        match role_of(&tick, 2) {
+            Role::Follow { leader, offset } => {
+                assert_eq!(*leader, 1);
+                // Robot 2 (started ahead) sits one body length in front of its leader.
+                assert!(
+                    (offset.x - 0.05).abs() < 1e-9 && offset.y.abs() < 1e-9,
+                    "{offset:?}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
         assert_eq!(tick.maintain.len(), 1);
         // Decouple: the anchor robot wiggles; once apart the pair is released.
         let pair = c.coupled_pairs();

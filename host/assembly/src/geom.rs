@@ -58,6 +58,12 @@ impl Pose2 {
         Pose2::new(x, y, wrap_angle(self.yaw + other.yaw))
     }
 
+    /// `other` expressed in this frame: self⁻¹ ∘ other.
+    pub fn relative(&self, other: &Pose2) -> Pose2 {
+        let [x, y] = self.inverse_transform([other.x, other.y]);
+        Pose2::new(x, y, wrap_angle(other.yaw - self.yaw))
+    }
+
     /// Euclidean distance between the positions.
     pub fn distance(&self, other: &Pose2) -> f64 {
         (self.x - other.x).hypot(self.y - other.y)
@@ -264,6 +270,10 @@ mod tests {
         let b = p.inverse_transform(w);
         assert!((b[0] - 0.01).abs() < 1e-12 && (b[1] - 0.02).abs() < 1e-12);
         assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-12);
+        let q = Pose2::new(-0.1, 0.4, -2.0);
+        let r = p.relative(&q);
+        let back = p.compose(&r);
+        assert!(back.distance(&q) < 1e-12 && wrap_angle(back.yaw - q.yaw).abs() < 1e-12);
         assert!((wrap_angle(-3.0 * PI) - PI).abs() < 1e-12);
     }
 
