@@ -1,1 +1,77 @@
-fn main() {}
+//! Simulation speed: 100 robots, firmware at 50 Hz, plant at 1 kHz, an in-process host
+//! streaming wheel-speed commands at 30 Hz to every robot (so every robot runs its speed
+//! loop, authenticates commands and seals telemetry). Prints the real-time factor.
+//!
+//! `cargo bench -p puzzlebot-sim --bench sim_speed [-- ROBOTS SECONDS]`
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::{key, speed, MiniHost};
+use puzzlebot_sim::{Scenario, World};
+use std::time::{Duration, Instant};
+
+/// CPU time this thread has run (ns), from /proc/thread-self/schedstat (Linux); the
+/// machine may be shared, so CPU time is what "on one core" means.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let robots: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(100);
+    let secs: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
+    let mut w = World::new(&Scenario::grid(robots, 1), &key()).expect("world");
+    let mut host = MiniHost::new(key());
+    let ids = w.robot_ids();
+    // Connect everyone first (not timed).
+    common::connect(&mut w, &mut host, 5.0);
+    let end = w.time_us() + (secs * 1e6) as u64;
+    let mut next_cmd = w.time_us();
+    let mut host_time = Duration::ZERO;
+    let cpu0 = thread_cpu_ns();
+    let start = Instant::now();
+    while w.time_us() < end {
+        w.step();
+        let h0 = Instant::now();
+        host.pump(&mut w);
+        if w.time_us() >= next_cmd {
+            next_cmd += 33_333;
+            let t = w.time_us() as f64 * 1e-6;
+            for &id in &ids {
+                // Gentle circles so robots stay apart and keep their loops busy.
+                let s = (t * 0.5 + f64::from(id)).sin() as f32;
+                if let Some(f) = host.seal(id, &speed(80.0 + 20.0 * s, 80.0 - 20.0 * s)) {
+                    w.send_to_robot(id, &f);
+                }
+            }
+        }
+        host_time += h0.elapsed();
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(thread_cpu_ns()).map(|(a, b)| (b - a) as f64 * 1e-9);
+    let sim_wall = wall - host_time.as_secs_f64();
+    let t = w.ground_truth();
+    let driving = t.robots.iter().filter(|r| r.wheel_rpm[0].abs() > 30.0).count();
+    println!(
+        "sim_speed: {robots} robots, {secs} s simulated (plant 1 kHz, firmware 50 Hz, commands 30 Hz): \
+         wall {wall:.3} s total = {:.1}x real time; simulator alone (without the in-process host's \
+         sealing/opening) {sim_wall:.3} s = {:.1}x real time; {driving}/{robots} robots driving; \
+         {:.0} ns per robot-step",
+        secs / wall,
+        secs / sim_wall,
+        sim_wall * 1e9 / (secs * 1000.0 * robots as f64)
+    );
+    if let Some(cpu) = cpu {
+        // The host's share is measured in wall time; scale it to CPU time by the same ratio.
+        let sim_cpu = cpu * (sim_wall / wall);
+        println!(
+            "sim_speed: one core, CPU time {cpu:.3} s total = {:.1}x real time; simulator alone \
+             {sim_cpu:.3} s = {:.1}x real time ({:.0} ns per robot-step)",
+            secs / cpu,
+            secs / sim_cpu,
+            sim_cpu * 1e9 / (secs * 1000.0 * robots as f64)
+        );
+    }
+}

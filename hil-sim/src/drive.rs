@@ -50,8 +50,8 @@ impl Bridge {
     /// Average armature drive: (voltage factor a/V, damping factor g) such that the
     /// armature sees `a·V − g·e` with back-EMF e.
     fn drive(self) -> (f64, f64) {
-        let d1 = f64::from(self.in1.min(1000)) / 1000.0;
-        let d2 = f64::from(self.in2.min(1000)) / 1000.0;
+        let d1 = f64::from(self.in1.min(1000)) * 1e-3;
+        let d2 = f64::from(self.in2.min(1000)) * 1e-3;
         if d1 == 0.0 && d2 == 0.0 {
             (0.0, 0.0) // coast: open armature
         } else if d1 == 0.0 || d2 == 0.0 {
@@ -250,38 +250,50 @@ impl BatteryModel {
     }
 }
 
-/// Solve `a x = b` (5 × 5) by Gaussian elimination with partial pivoting.
-fn solve5(mut a: [[f64; 5]; 5], mut b: [f64; 5]) -> [f64; 5] {
-    for col in 0..5 {
-        let mut piv = col;
-        for r in col + 1..5 {
-            if a[r][col].abs() > a[piv][col].abs() {
-                piv = r;
-            }
+/// Solve `a x = b` for the drive's 5 × 5 structure: rows/columns 0 and 1 are the wheels,
+/// which couple only to themselves and to the body (columns 2…4), never to each other. The
+/// wheels are eliminated (their diagonal is ≥ the wheel inertia, or 1 for a locked wheel),
+/// leaving a 3 × 3 body system solved by Cramer's rule; then the wheels are back-substituted.
+fn solve5(a: [[f64; 5]; 5], b: [f64; 5]) -> [f64; 5] {
+    let mut m = [[0.0; 3]; 3];
+    let mut y = [0.0; 3];
+    for r in 0..3 {
+        y[r] = b[r + 2];
+        for c in 0..3 {
+            m[r][c] = a[r + 2][c + 2];
         }
-        a.swap(col, piv);
-        b.swap(col, piv);
-        let d = a[col][col];
-        if d.abs() < 1e-300 {
-            continue;
-        }
-        for r in col + 1..5 {
-            let f = a[r][col] / d;
+        for s in 0..2 {
+            let f = a[r + 2][s] / a[s][s];
             if f != 0.0 {
-                for c in col..5 {
-                    a[r][c] -= f * a[col][c];
+                for c in 0..3 {
+                    m[r][c] -= f * a[s][c + 2];
                 }
-                b[r] -= f * b[col];
+                y[r] -= f * b[s];
             }
         }
     }
+    let det3 = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det3(&m);
     let mut x = [0.0; 5];
-    for r in (0..5).rev() {
-        let mut s = b[r];
-        for c in r + 1..5 {
-            s -= a[r][c] * x[c];
+    if d.abs() > 1e-300 {
+        for k in 0..3 {
+            let mut mk = m;
+            for r in 0..3 {
+                mk[r][k] = y[r];
+            }
+            x[k + 2] = det3(&mk) / d;
         }
-        x[r] = if a[r][r].abs() < 1e-300 { 0.0 } else { s / a[r][r] };
+    }
+    for s in 0..2 {
+        let mut v = b[s];
+        for c in 2..5 {
+            v -= a[s][c] * x[c];
+        }
+        x[s] = v / a[s][s];
     }
     x
 }
@@ -292,19 +304,21 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
     let vbat = st.battery_v;
     let half = md.base * 0.5;
     // Motor terms: wheel torque = A_s − B_s·ω_s' (after eliminating the current).
-    let r_eff = md.res + md.ind / dt;
+    let l_dt = md.ind / dt;
+    let inv_r = 1.0 / (md.res + l_dt);
+    let torque_k = md.eta * md.n * md.k;
     let mut a_m = [0.0; 2];
     let mut b_m = [0.0; 2];
     let mut cur_c0 = [0.0; 2];
     let mut cur_c1 = [0.0; 2];
     for s in 0..2 {
         let (av, g) = cmd[s].drive();
-        let c0 = (md.ind / dt * st.current[s] + av * vbat) / r_eff;
-        let c1 = g * md.k * md.n / r_eff;
+        let c0 = (l_dt * st.current[s] + av * vbat) * inv_r;
+        let c1 = g * md.k * md.n * inv_r;
         cur_c0[s] = c0;
         cur_c1[s] = c1;
-        a_m[s] = md.eta * md.n * md.k * c0;
-        b_m[s] = md.eta * md.n * md.k * c1 + md.b_visc;
+        a_m[s] = torque_k * c0;
+        b_m[s] = torque_k * c1 + md.b_visc;
     }
     // Contact speeds at the start of the step (for the secant stiffnesses).
     let long = [st.v - st.omega * half, st.v + st.omega * half];
@@ -339,7 +353,8 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
     let mut cas_k = [0.0; 2];
     for (j, ck) in cas_k.iter_mut().enumerate().take(md.n_casters) {
         let (x, mu_n) = md.casters[j];
-        let sp = st.v.hypot(st.vy + st.omega * x);
+        let lat = st.vy + st.omega * x;
+        let sp = (st.v * st.v + lat * lat).sqrt();
         *ck = mu_n / sp.max(V_REG);
     }
     let mut sat: [Option<f64>; 2] = [None, None];
@@ -477,6 +492,31 @@ mod tests {
             step(&m, &mut s, [b(duty[0]), b(duty[1])], 1e-3);
         }
         (m, s)
+    }
+
+    #[test]
+    fn structured_solver_matches_the_system() {
+        let mut a = [[0.0; 5]; 5];
+        let vals = [0.3, -0.7, 1.1, 0.2, -0.4, 0.9, 0.5, -0.2, 0.8];
+        a[0][0] = 2.0;
+        a[1][1] = 3.0;
+        for r in 0..2 {
+            for c in 2..5 {
+                a[r][c] = vals[r * 3 + c - 2];
+                a[c][r] = vals[(r * 3 + c) % 9] * 0.5;
+            }
+        }
+        for r in 2..5 {
+            for c in 2..5 {
+                a[r][c] = if r == c { 5.0 } else { vals[r + c - 4] };
+            }
+        }
+        let b = [1.0, -2.0, 0.5, 3.0, -1.0];
+        let x = solve5(a, b);
+        for r in 0..5 {
+            let lhs: f64 = (0..5).map(|c| a[r][c] * x[c]).sum();
+            assert!((lhs - b[r]).abs() < 1e-12, "row {r}: {lhs} vs {}", b[r]);
+        }
     }
 
     #[test]

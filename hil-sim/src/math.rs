@@ -47,8 +47,65 @@ impl Pose {
     }
 }
 
+/// A pose with its sine and cosine computed once (for many transforms in a row).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Position x (m).
+    pub x: f64,
+    /// Position y (m).
+    pub y: f64,
+    /// sin(yaw).
+    pub s: f64,
+    /// cos(yaw).
+    pub c: f64,
+}
+
+impl Frame {
+    /// The frame of `p`.
+    pub fn of(p: &Pose) -> Frame {
+        let (s, c) = p.yaw.sin_cos();
+        Frame { x: p.x, y: p.y, s, c }
+    }
+
+    /// Same rotation, position of `p` (when only the position changed).
+    pub fn moved(self, p: &Pose) -> Frame {
+        Frame { x: p.x, y: p.y, ..self }
+    }
+
+    /// A body-frame point in the world frame.
+    pub fn apply(&self, p: V2) -> V2 {
+        [self.x + self.c * p[0] - self.s * p[1], self.y + self.s * p[0] + self.c * p[1]]
+    }
+
+    /// A world point in this body frame.
+    pub fn inverse_apply(&self, p: V2) -> V2 {
+        let d = [p[0] - self.x, p[1] - self.y];
+        [self.c * d[0] + self.s * d[1], -self.s * d[0] + self.c * d[1]]
+    }
+
+    /// A body-frame direction in the world frame.
+    pub fn rotate(&self, v: V2) -> V2 {
+        [self.c * v[0] - self.s * v[1], self.s * v[0] + self.c * v[1]]
+    }
+
+    /// Position.
+    pub fn pos(&self) -> V2 {
+        [self.x, self.y]
+    }
+}
+
 /// Wrap an angle to (−π, π].
 pub fn wrap(a: f64) -> f64 {
+    use core::f64::consts::PI;
+    if a > -PI && a <= PI {
+        return a;
+    }
+    if a > PI && a <= 3.0 * PI {
+        return a - 2.0 * PI;
+    }
+    if a > -3.0 * PI && a <= -PI {
+        return a + 2.0 * PI;
+    }
     let mut a = a % (2.0 * core::f64::consts::PI);
     if a > core::f64::consts::PI {
         a -= 2.0 * core::f64::consts::PI;
@@ -85,7 +142,7 @@ pub fn cross(a: V2, b: V2) -> f64 {
 
 /// Euclidean length.
 pub fn norm(a: V2) -> f64 {
-    a[0].hypot(a[1])
+    (a[0] * a[0] + a[1] * a[1]).sqrt()
 }
 
 /// True when `p` is inside the convex hull of `pts` (any order, ≥ 3 points; fewer: false).

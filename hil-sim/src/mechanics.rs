@@ -48,7 +48,7 @@
 //! pose). A knob pair holds more than robots can pull (`knob_hold_force`), so it is
 //! released only by [`Mechanics::detach`] (a person pulling it apart).
 
-use crate::math::{cross, dot, norm, sub, wrap, Pose, V2};
+use crate::math::{cross, dot, norm, sub, wrap, Frame, Pose, V2};
 use puzzlebot_params::{coupling::Coupling, geometry::Geometry};
 
 /// Fraction of the anchor yaw range beyond which a leg pops out of its slit.
@@ -117,6 +117,36 @@ pub struct Body {
     pub inertia: f64,
     /// Takes part in contacts (false: fallen or switched off the table).
     pub active: bool,
+    /// sin, cos of `pose.yaw` (whoever turns the body keeps them in sync).
+    pub trig: [f64; 2],
+}
+
+impl Body {
+    /// A body at `pose`.
+    pub fn new(pose: Pose, mass: f64, inertia: f64) -> Body {
+        let (s, c) = pose.yaw.sin_cos();
+        Body {
+            pose,
+            mass,
+            inertia,
+            active: true,
+            trig: [s, c],
+        }
+    }
+
+    fn frame(&self) -> Frame {
+        Frame {
+            x: self.pose.x,
+            y: self.pose.y,
+            s: self.trig[0],
+            c: self.trig[1],
+        }
+    }
+
+    fn retrig(&mut self) {
+        let (s, c) = self.pose.yaw.sin_cos();
+        self.trig = [s, c];
+    }
 }
 
 /// Geometry numbers the mechanics needs (f64).
@@ -211,7 +241,7 @@ fn solve_point(ba: &mut Body, bb: &mut Body, pa: V2, pb: V2, n: V2, c: f64, rota
 }
 
 /// Separating-axis test of two rectangles: (normal from a to b, penetration) if they overlap.
-fn rect_overlap(pa: &Pose, pb: &Pose, half: V2) -> Option<(V2, f64)> {
+fn rect_overlap(pa: &Frame, pb: &Frame, half: V2) -> Option<(V2, f64)> {
     let axes = [
         pa.rotate([1.0, 0.0]),
         pa.rotate([0.0, 1.0]),
@@ -219,6 +249,10 @@ fn rect_overlap(pa: &Pose, pb: &Pose, half: V2) -> Option<(V2, f64)> {
         pb.rotate([0.0, 1.0]),
     ];
     let d = sub(pb.pos(), pa.pos());
+    let reach = 2.0 * norm(half);
+    if dot(d, d) > reach * reach {
+        return None;
+    }
     let ua = [axes[0], axes[1]];
     let ub = [axes[2], axes[3]];
     let mut best: Option<(V2, f64)> = None;
@@ -322,17 +356,28 @@ impl Mechanics {
     /// Candidate pairs by a sweep along x (bodies closer than two bounding radii).
     fn broad_phase(&mut self, bodies: &[Body]) {
         self.pairs.clear();
-        self.order.clear();
-        self.order.extend((0..bodies.len()).filter(|&i| bodies[i].active));
-        self.order
-            .sort_by(|&i, &j| bodies[i].pose.x.total_cmp(&bodies[j].pose.x).then(i.cmp(&j)));
+        // The order persists between steps and is nearly sorted: insertion sort is O(n).
+        if self.order.len() != bodies.len() {
+            self.order = (0..bodies.len()).collect();
+        }
+        let key = |i: usize| bodies[i].pose.x;
+        for k in 1..self.order.len() {
+            let mut j = k;
+            while j > 0 && key(self.order[j - 1]) > key(self.order[j]) {
+                self.order.swap(j - 1, j);
+                j -= 1;
+            }
+        }
         let reach = 2.0 * self.shape.radius + 0.002;
         for (k, &i) in self.order.iter().enumerate() {
+            if !bodies[i].active {
+                continue;
+            }
             for &j in &self.order[k + 1..] {
                 if bodies[j].pose.x - bodies[i].pose.x > reach {
                     break;
                 }
-                if (bodies[j].pose.y - bodies[i].pose.y).abs() <= reach {
+                if bodies[j].active && (bodies[j].pose.y - bodies[i].pose.y).abs() <= reach {
                     self.pairs.push((i.min(j), i.max(j)));
                 }
             }
@@ -349,9 +394,15 @@ impl Mechanics {
     /// `bodies` are moved in place; returns what changed.
     pub fn resolve(&mut self, bodies: &mut [Body], events: &mut Vec<LinkEvent>) {
         self.broad_phase(bodies);
+        if self.pairs.is_empty() && self.links.is_empty() {
+            return;
+        }
         self.detect(bodies, events);
         for _ in 0..ITERATIONS {
-            self.project_contacts(bodies);
+            let moved = self.project_contacts(bodies);
+            if self.links.is_empty() && !moved {
+                break;
+            }
             self.project_links(bodies);
         }
         self.update_links(bodies, events);
@@ -367,10 +418,14 @@ impl Mechanics {
                 }
                 let (ba, bb) = (&bodies[a], &bodies[b]);
                 let phi = wrap(ba.pose.yaw - bb.pose.yaw);
+                if phi.abs() > ANCHOR_ENTRY_YAW && phi.abs() > KNOB_YAW_TOLERANCE {
+                    continue;
+                }
+                let (fa, fb) = (ba.frame(), bb.frame());
                 // Anchor of a into the opening of b.
                 if !self.anchor_busy(a) && !self.opening_busy(b) && phi.abs() <= ANCHOR_ENTRY_YAW
                 {
-                    let h = self.head_in(ba, bb);
+                    let h = fb.inverse_apply(fa.apply(sh.head));
                     let face = sh.opening[0];
                     if h[0] <= face + 1e-4
                         && h[0] >= face - sh.depth
@@ -389,7 +444,7 @@ impl Mechanics {
                 }
                 // Left knob of a into the right hole of b (b on a's left).
                 if phi.abs() <= KNOB_YAW_TOLERANCE {
-                    let k = bb.pose.inverse_apply(ba.pose.apply(sh.knob));
+                    let k = fb.inverse_apply(fa.apply(sh.knob));
                     let hole = [sh.knob[0], -sh.knob[1]];
                     let d = sub(k, hole);
                     if d[0].abs() <= self.c.knob && d[1].abs() <= 0.0015 {
@@ -416,8 +471,9 @@ impl Mechanics {
             .find(|l| (l.a == i && l.b == j) || (l.a == j && l.b == i))
     }
 
-    fn project_contacts(&self, bodies: &mut [Body]) {
+    fn project_contacts(&self, bodies: &mut [Body]) -> bool {
         let sh = self.shape;
+        let mut moved = false;
         for &(i, j) in &self.pairs {
             let link = self.link_between(i, j);
             let (lo, hi) = bodies.split_at_mut(j);
@@ -431,8 +487,10 @@ impl Mechanics {
                 Some(Link { kind: LinkKind::Anchor, state: LinkState::Coupled, .. })
                     | Some(Link { kind: LinkKind::Knob, .. })
             );
+            let (fi, fj) = (bi.frame(), bj.frame());
             if !skip_bodies {
-                if let Some((n, pen)) = rect_overlap(&bi.pose, &bj.pose, sh.half) {
+                if let Some((n, pen)) = rect_overlap(&fi, &fj, sh.half) {
+                    moved = true;
                     solve_point(bi, bj, bi.pose.pos(), bj.pose.pos(), n, -pen, false);
                 }
             }
@@ -440,11 +498,17 @@ impl Mechanics {
             for swap in [false, true] {
                 let (ba, bb) = if swap { (&mut *bj, &mut *bi) } else { (&mut *bi, &mut *bj) };
                 let (ia, ib) = if swap { (j, i) } else { (i, j) };
+                // Contacts move bodies without turning them: only positions changed.
+                let (fa, fb) = if swap {
+                    (fj.moved(&ba.pose), fi.moved(&bb.pose))
+                } else {
+                    (fi.moved(&ba.pose), fj.moved(&bb.pose))
+                };
                 if link.is_some_and(|l| l.kind == LinkKind::Anchor && l.a == ia && l.b == ib) {
                     continue;
                 }
-                let hw = ba.pose.apply(sh.head);
-                let h = bb.pose.inverse_apply(hw);
+                let hw = fa.apply(sh.head);
+                let h = fb.inverse_apply(hw);
                 let px = sh.half[0] - h[0].abs();
                 let py = sh.half[1] - h[1].abs();
                 if px > 0.0 && py > 0.0 {
@@ -454,12 +518,14 @@ impl Mechanics {
                     } else {
                         [0.0, h[1].signum()]
                     };
-                    let n = bb.pose.rotate(local);
+                    let n = fb.rotate(local);
                     let pen = px.min(py);
+                    moved = true;
                     solve_point(bb, ba, bb.pose.pos(), hw, n, -pen, false);
                 }
             }
         }
+        moved
     }
 
     fn project_links(&self, bodies: &mut [Body]) {
@@ -530,6 +596,8 @@ impl Mechanics {
                 }
                 (LinkKind::Anchor, LinkState::Releasing) => {}
             }
+            ba.retrig();
+            bb.retrig();
         }
     }
 
@@ -613,12 +681,7 @@ mod tests {
     use super::*;
 
     fn body(x: f64, y: f64, yaw: f64) -> Body {
-        Body {
-            pose: Pose::new(x, y, yaw),
-            mass: 0.1,
-            inertia: 4.5e-5,
-            active: true,
-        }
+        Body::new(Pose::new(x, y, yaw), 0.1, 4.5e-5)
     }
 
     #[test]

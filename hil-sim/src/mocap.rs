@@ -110,13 +110,16 @@ impl Mocap {
     pub fn capture(&mut self, time_us: u64, truth: &[(u16, f64, f64, f64, f64)]) -> MocapFrame {
         let c = self.config;
         let mut bodies = Vec::with_capacity(truth.len());
-        for &(id, x, y, z, yaw) in truth {
+        for (i, &(id, x, y, z, yaw)) in truth.iter().enumerate() {
             let nx = self.rng.normal() * c.position_noise_m;
             let ny = self.rng.normal() * c.position_noise_m;
             let nz = self.rng.normal() * c.position_noise_m;
             let nyaw = self.rng.normal() * c.yaw_noise_rad;
             let lost = self.rng.chance(c.dropout);
-            let prev = self.last.iter().find(|b| b.robot_id == id).copied();
+            let prev = match self.last.get(i) {
+                Some(b) if b.robot_id == id => Some(*b),
+                _ => self.last.iter().find(|b| b.robot_id == id).copied(),
+            };
             let b = match (lost, prev) {
                 (true, Some(p)) => BodyPose { tracked: false, ..p },
                 (true, None) => BodyPose {

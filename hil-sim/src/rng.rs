@@ -8,6 +8,7 @@
 #[derive(Debug, Clone)]
 pub struct Rng {
     s: [u64; 4],
+    spare: Option<f64>,
 }
 
 fn splitmix(x: &mut u64) -> u64 {
@@ -29,7 +30,7 @@ impl Rng {
             splitmix(&mut x),
             splitmix(&mut x),
         ];
-        Rng { s }
+        Rng { s, spare: None }
     }
 
     /// Next 64 random bits.
@@ -55,11 +56,17 @@ impl Rng {
         p > 0.0 && self.uniform() < p
     }
 
-    /// Standard normal (Box–Muller).
+    /// Standard normal (Box–Muller; the second value of each pair is kept for the next call).
     pub fn normal(&mut self) -> f64 {
+        if let Some(z) = self.spare.take() {
+            return z;
+        }
         let u1 = self.uniform().max(1e-300);
         let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos()
+        let r = (-2.0 * u1.ln()).sqrt();
+        let (s, c) = (2.0 * core::f64::consts::PI * u2).sin_cos();
+        self.spare = Some(r * s);
+        r * c
     }
 
     /// 16 random bytes (a boot nonce).
