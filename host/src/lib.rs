@@ -9,3 +9,6 @@ pub mod link;
 pub mod pose;
 pub mod control;
 pub mod report;
+pub mod app;
+pub mod calibrate;
+pub mod simulated;

@@ -56,7 +56,7 @@ pub struct LinkStats {
     pub rx_frames: u64,
     /// Telemetry frames received.
     pub telemetry: u64,
-    /// Telemetry frames missing (gaps in the robot's counter).
+    /// Robot frames missing (gaps in the robot's session counter).
     pub rx_lost: u64,
     /// Frames sent (welcomes, commands, pings).
     pub tx_frames: u64,
@@ -79,9 +79,9 @@ pub struct LinkStats {
 }
 
 impl LinkStats {
-    /// Fraction of telemetry lost (0…1).
+    /// Fraction of robot → host frames lost (0…1).
     pub fn rx_loss(&self) -> f64 {
-        let total = self.telemetry + self.rx_lost;
+        let total = self.rx_frames + self.rx_lost;
         if total == 0 {
             0.0
         } else {
@@ -524,22 +524,22 @@ fn handle(inner: &Inner, frame: &[u8], src: SocketAddr, now: Instant) -> Option<
                     tracing::info!(robot = id, "robot online");
                     events.push(LinkEventKind::Online);
                 }
+                // Loss from gaps in the robot's session counter (every session frame
+                // uses it: telemetry, pongs, replies).
+                match r.last_counter {
+                    // Far below the last counter: a new session restarted at 0.
+                    Some(last) if h.counter + 64 < last => {}
+                    Some(last) if h.counter > last + 1 => r.stats.rx_lost += h.counter - last - 1,
+                    // A late frame arrived after its gap was counted as lost.
+                    Some(last) if h.counter < last => r.stats.rx_lost = r.stats.rx_lost.saturating_sub(1),
+                    _ => {}
+                }
+                if r.last_counter.is_none_or(|l| h.counter > l || h.counter + 64 < l) {
+                    r.last_counter = Some(h.counter);
+                }
                 match msg {
                     RobotMsg::Telemetry(tm) => {
                         r.stats.telemetry += 1;
-                        match r.last_counter {
-                            // Far below the last counter: a new session restarted at 0.
-                            Some(last) if h.counter + 64 < last => {}
-                            Some(last) if h.counter > last + 1 => r.stats.rx_lost += h.counter - last - 1,
-                            // A late frame arrived after its gap was counted as lost.
-                            Some(last) if h.counter < last => {
-                                r.stats.rx_lost = r.stats.rx_lost.saturating_sub(1)
-                            }
-                            _ => {}
-                        }
-                        if r.last_counter.is_none_or(|l| h.counter > l || h.counter + 64 < l) {
-                            r.last_counter = Some(h.counter);
-                        }
                         if let Some(&(_, sent)) =
                             r.sent_cmds.iter().find(|(c, _)| *c == tm.last_command_counter)
                         {
@@ -608,8 +608,11 @@ async fn stream_loop(inner: Arc<Inner>) {
     let period = Duration::from_secs_f64(1.0 / hz);
     let offline_after = Duration::from_millis(u64::from(inner.config.rates.offline_after_ms));
     // Check offline status four times per command period, so detection is well inside the limit.
-    let mut tick = tokio::time::interval(period / 4);
+    let check = period / 4;
+    let mut tick = tokio::time::interval(check);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    // Declared one check early, so a robot is always marked offline by the threshold.
+    let offline_after = offline_after.saturating_sub(check);
     loop {
         tick.tick().await;
         let now = Instant::now();

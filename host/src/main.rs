@@ -1,1 +1,191 @@
-fn main() {}
+//! `puzzlebot`: the PuzzleBot host CLI. With no arguments it runs the demo.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use puzzlebot_host::{app, calibrate, config::Fleet};
+use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
+
+#[derive(Parser)]
+#[command(name = "puzzlebot", version, about = "PuzzleBot fleet host: link, poses, drive mapping, calibration")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Cmd>,
+    /// Folder that receives run folders.
+    #[arg(long, global = true, default_value = "runs")]
+    runs_dir: PathBuf,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BehaviourArg {
+    Line,
+    Circle,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModeArg {
+    /// Wheel-speed pairs (RPM; the units the host drives with).
+    Speed,
+    /// Raw duty pairs (per-mille; THESIS 3.5.1's open-loop PWM calibration).
+    Duty,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// In-process simulated fleet of 4 robots over loopback: lines and circles (default).
+    Demo,
+    /// Drive the robots of a fleet config through a behaviour (real or simulated robots).
+    Run {
+        /// Fleet config (TOML).
+        #[arg(long)]
+        fleet: PathBuf,
+        /// Behaviour each robot performs from its current pose.
+        #[arg(long, value_enum, default_value = "line")]
+        behaviour: BehaviourArg,
+        /// Line length or circle radius (m).
+        #[arg(long, default_value_t = 0.4)]
+        size: f64,
+        /// Cruise speed (m/s).
+        #[arg(long, default_value_t = 0.05)]
+        speed: f64,
+        /// Seconds to wait for the listed robots.
+        #[arg(long, default_value_t = 5.0)]
+        wait: f64,
+    },
+    /// Run a simulated fleet for an external host (until Ctrl-C).
+    Sim {
+        /// Scenario file (TOML); default: 4 robots in a row.
+        #[arg(long)]
+        scenario: Option<PathBuf>,
+        /// Fleet config: its key file, link address (robots send there) and pose address.
+        #[arg(long)]
+        fleet: PathBuf,
+    },
+    /// Live table of the fleet: robot, kind, link, battery, RTT, state.
+    Status {
+        /// Fleet config (TOML).
+        #[arg(long)]
+        fleet: PathBuf,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
+    /// Calibrate one robot (THESIS 3.5.1): k_v, k_ω, M_min, butterfly A and B.
+    Calibrate {
+        /// Robot id.
+        #[arg(long)]
+        robot: u16,
+        /// Fleet config (TOML); without it a simulated robot is calibrated.
+        #[arg(long)]
+        fleet: Option<PathBuf>,
+        /// Command space.
+        #[arg(long, value_enum, default_value = "speed")]
+        mode: ModeArg,
+        /// Parameter file to write (default: robot-<id>.toml in the run folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,puzzlebot_host=info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    let rt = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    match rt.block_on(run(cli)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+async fn run(cli: Cli) -> anyhow::Result<()> {
+    let runs = cli.runs_dir;
+    match cli.command.unwrap_or(Cmd::Demo) {
+        Cmd::Demo => {
+            println!("puzzlebot demo: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
+            let t0 = std::time::Instant::now();
+            let report = app::demo(&runs, true).await?;
+            print!("{}", app::describe(&report));
+            println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+        }
+        Cmd::Run { fleet, behaviour, size, speed, wait } => {
+            let fleet = Fleet::load(&fleet)?;
+            let b = match behaviour {
+                BehaviourArg::Line => app::Behaviour::Line { length: size },
+                BehaviourArg::Circle => app::Behaviour::Circle { radius: size },
+            };
+            let report = app::run_fleet(&fleet, b, speed, Duration::from_secs_f64(wait), &runs).await?;
+            print!("{}", app::describe(&report));
+        }
+        Cmd::Sim { scenario, fleet } => {
+            let fleet = Fleet::load(&fleet)?;
+            let scenario = match scenario {
+                Some(p) => Scenario::from_file(&p)?,
+                None => Scenario::grid(4, 1),
+            };
+            let sim = SimFleet::start(
+                scenario,
+                SimOptions {
+                    fleet_key: fleet.key.clone(),
+                    host_addr: fleet.config.link.bind,
+                    pose_addr: Some(fleet.config.pose.bind),
+                    pace: Pace::RealTime,
+                },
+            )?;
+            for (id, addr) in sim.robot_addrs() {
+                println!("robot {id} on {addr}");
+            }
+            println!("sending to host {} and poses to {}; Ctrl-C stops", fleet.config.link.bind, fleet.config.pose.bind);
+            tokio::signal::ctrl_c().await?;
+            sim.stop();
+        }
+        Cmd::Status { fleet, seconds } => {
+            let fleet = Fleet::load(&fleet)?;
+            let (link, _poses) = app::start_host(&fleet).await?;
+            let end = seconds.map(|s| tokio::time::Instant::now() + Duration::from_secs_f64(s));
+            let mut tick = tokio::time::interval(Duration::from_millis(500));
+            loop {
+                tokio::select! {
+                    _ = tick.tick() => {
+                        // Clear the screen and redraw the table.
+                        print!("\x1b[2J\x1b[H{}", app::status_table(&link.statuses()));
+                        if end.is_some_and(|e| tokio::time::Instant::now() >= e) {
+                            break;
+                        }
+                    }
+                    _ = tokio::signal::ctrl_c() => break,
+                }
+            }
+            link.shutdown().await;
+        }
+        Cmd::Calibrate { robot, fleet, mode, out } => {
+            let mode = match mode {
+                ModeArg::Speed => calibrate::Mode::Speed,
+                ModeArg::Duty => calibrate::Mode::Duty,
+            };
+            let fleet = match fleet {
+                Some(p) => Some(Fleet::load(&p)?),
+                None => None,
+            };
+            let report = calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
+            print!("{report}");
+        }
+    }
+    Ok(())
+}
