@@ -372,6 +372,7 @@ pub fn build(r: &Resolved, with_limits: bool) -> Program {
         let mut lay = ContactLayout { var: [None; 3] };
         let muz = [1.0, ct.mu[0], ct.mu[1]];
         let axes = [ct.frame[2], ct.frame[0], ct.frame[1]];
+        let frictionless = ct.mu[0] == 0.0 && ct.mu[1] == 0.0;
         let mut dim = 0;
         for k in 0..3 {
             if muz[k] == 0.0 {
@@ -379,16 +380,25 @@ pub fn build(r: &Resolved, with_limits: bool) -> Program {
             }
             let v = new_var(q, if k == 0 { cost } else { 0.0 });
             lay.var[k] = Some(v);
-            soc.push(soc_row + dim, v, -1.0);
-            dim += 1;
+            if frictionless {
+                // A lone normal force: f_z ≥ 0 (a nonnegative row, no cone).
+                let row = nn_b.len();
+                nn.push(row, v, -1.0);
+                nn_b.push(0.0);
+            } else {
+                soc.push(soc_row + dim, v, -1.0);
+                dim += 1;
+            }
             add_eq(eq, ct.module, v, axes[k], false, ct.point, muz[k]);
             if let Some(o) = other {
                 add_eq(eq, o, v, axes[k], false, ct.point, -muz[k]);
             }
         }
-        let dim = dim.max(2); // a lone normal force: [f_z, 0] ∈ SOC(2) ⇔ f_z ≥ 0
-        soc_dims.push(dim);
-        soc_row += dim;
+        if !frictionless {
+            let dim = dim.max(2); // one friction direction: SOC(2) ⇔ |f_t/μ| ≤ f_z
+            soc_dims.push(dim);
+            soc_row += dim;
+        }
         lay
     };
     let mut contacts = Vec::with_capacity(r.contacts.len());
