@@ -523,6 +523,17 @@ impl Coordinator {
         }
     }
 
+    /// Let a robot declared lost take part again (it joins the next `form`); returns whether
+    /// it was lost.
+    pub fn readmit(&mut self, robot: RobotId) -> bool {
+        let was = self.lost.remove(&robot);
+        if was {
+            // Its old pose is stale; wait for a fresh measurement.
+            self.robots.remove(&robot);
+        }
+        was
+    }
+
     fn fail_replan(&mut self, t: f64, reason: String) {
         self.plan = None;
         self.pairs.clear();
@@ -1172,9 +1183,13 @@ mod tests {
         assert_eq!(plan.pairs.len(), 2);
         assert!(plan.pairs.iter().all(|p| !p.involves(3)));
         assert!(tick.tasks.iter().all(|t| t.robot != 3));
-        // If it shows up again it stays out of the plan.
+        // If it shows up again it stays out of the plan until readmitted and re-formed.
         c.tick(1.3, &robots);
         assert!(!c.plan().unwrap().slot_robot.contains(&3));
+        assert!(c.readmit(3));
+        c.tick(1.4, &robots);
+        c.form(1.4, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        assert_eq!(c.plan().unwrap().slot_robot.len(), 4);
     }
 
     #[test]
