@@ -162,7 +162,8 @@ impl DriveModel {
             lateral[1] = (-d, mu_lat * w * 0.25 * 2.0);
             2
         } else {
-            lateral[0] = (0.0, mu_lat * n_side * 2.0);
+            // One axle, `wheel_axle_offset` ahead of the centre (0 for the chapter-5 robot).
+            lateral[0] = (d, mu_lat * n_side * 2.0);
             1
         };
         let mut casters = [(0.0, 0.0); 2];

@@ -127,15 +127,22 @@ impl Plant {
         match kind {
             // Fast four-wheeled pilot (B = 0.47 m/s) that barely turns in place.
             RobotKind::Pilot => {
-                p.gear_ratio = 14.0;
-                p.wheel_lateral_friction = 1.0;
-                p.slip_angle_saturation = 0.5;
-                p.wheel_axle_offset = 0.018;
+                p.gear_ratio = 40.8;
+                p.wheel_lateral_friction = 2.0;
+                p.slip_angle_saturation = 0.031;
+                p.wheel_axle_offset = 0.0063;
+                p.friction_static = 4.22e-3;
+                p.friction_coulomb = 2.78e-3;
             }
             // Slow non-pilot (B = 0.11 m/s) whose ball casters drag when it turns.
             RobotKind::NonPilot => {
-                p.gear_ratio = 60.0;
-                p.caster_friction = 0.35;
+                p.gear_ratio = 261.0;
+                p.wheel_axle_offset = 0.0011;
+                p.wheel_lateral_friction = 0.237;
+                p.slip_angle_saturation = 0.093;
+                p.friction_static = 1.95e-3;
+                p.friction_coulomb = 1.29e-3;
+                p.caster_friction = 0.076;
             }
         }
         p
