@@ -35,6 +35,7 @@
 mod dmpc;
 mod problem;
 mod robot;
+pub mod scenario;
 mod types;
 
 pub use dmpc::DistributedMpc;

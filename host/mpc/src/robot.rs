@@ -74,6 +74,8 @@ fn settings(t: &SolverTuning) -> DefaultSettings<f64> {
         tol_gap_abs: t.tol_gap,
         tol_gap_rel: t.tol_gap,
         tol_feas: t.tol_feas,
+        iterative_refinement_max_iter: t.refinement_max_iter,
+        iterative_refinement_reltol: t.refinement_reltol,
         ..DefaultSettings::default()
     }
 }

@@ -312,6 +312,10 @@ pub struct SolverTuning {
     pub tol_feas: f64,
     /// Reuse the solver (symbolic factorisation) across ticks via in-place data updates.
     pub reuse_factorisation: bool,
+    /// Largest number of iterative-refinement steps per KKT solve (Clarabel default 10).
+    pub refinement_max_iter: u32,
+    /// Relative tolerance of iterative refinement (Clarabel default 1e-13).
+    pub refinement_reltol: f64,
 }
 
 impl Default for SolverTuning {
@@ -321,6 +325,8 @@ impl Default for SolverTuning {
             tol_gap: 1e-7,
             tol_feas: 1e-7,
             reuse_factorisation: true,
+            refinement_max_iter: 3,
+            refinement_reltol: 1e-9,
         }
     }
 }
