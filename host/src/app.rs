@@ -35,12 +35,37 @@ pub fn demo_plans(n: usize) -> BTreeMap<RobotId, Trajectory> {
             let id = (i + 1) as RobotId;
             let col = (i / 4) as f64 * 1.2;
             let path = match i % 4 {
-                0 => RefPath::Line { start: [col, 0.0], heading: 0.0, length: 0.4 },
-                1 => RefPath::Line { start: [col, 0.15], heading: 0.0, length: 0.4 },
-                2 => RefPath::Circle { center: [col + 0.75, 0.1], radius: 0.1, phase: -pi / 2.0, ccw: true },
-                _ => RefPath::Circle { center: [col + 0.75, 0.45], radius: 0.1, phase: pi / 2.0, ccw: false },
+                0 => RefPath::Line {
+                    start: [col, 0.0],
+                    heading: 0.0,
+                    length: 0.4,
+                },
+                1 => RefPath::Line {
+                    start: [col, 0.15],
+                    heading: 0.0,
+                    length: 0.4,
+                },
+                2 => RefPath::Circle {
+                    center: [col + 0.75, 0.1],
+                    radius: 0.1,
+                    phase: -pi / 2.0,
+                    ccw: true,
+                },
+                _ => RefPath::Circle {
+                    center: [col + 0.75, 0.45],
+                    radius: 0.1,
+                    phase: pi / 2.0,
+                    ccw: false,
+                },
             };
-            (id, Trajectory { path, speed: 0.05, accel: 0.1 })
+            (
+                id,
+                Trajectory {
+                    path,
+                    speed: 0.07,
+                    accel: 0.15,
+                },
+            )
         })
         .collect()
 }
@@ -131,8 +156,9 @@ pub async fn start_host(fleet: &Fleet) -> anyhow::Result<(FleetLink, PoseInput)>
     let poses = match c.pose.source {
         PoseSourceKind::Pbp1 => PoseInput::start(c.pose.bind, Pbp1Decoder, epoch).await?,
         PoseSourceKind::Natnet => {
-            let d = NatNetDecoder::new(&c.pose.natnet_version, c.pose.up_axis)
-                .map_err(|e| anyhow::anyhow!("{}: pose.natnet_version: {e}", fleet.path.display()))?;
+            let d = NatNetDecoder::new(&c.pose.natnet_version, c.pose.up_axis).map_err(|e| {
+                anyhow::anyhow!("{}: pose.natnet_version: {e}", fleet.path.display())
+            })?;
             PoseInput::start(c.pose.bind, d, epoch).await?
         }
     };
@@ -180,7 +206,11 @@ pub async fn run_fleet(
         };
         let pi = std::f64::consts::PI;
         let path = match behaviour {
-            Behaviour::Line { length } => RefPath::Line { start: [p.x, p.y], heading: p.theta, length },
+            Behaviour::Line { length } => RefPath::Line {
+                start: [p.x, p.y],
+                heading: p.theta,
+                length,
+            },
             Behaviour::Circle { radius } => RefPath::Circle {
                 center: [p.x - radius * p.theta.sin(), p.y + radius * p.theta.cos()],
                 radius,
@@ -188,7 +218,14 @@ pub async fn run_fleet(
                 ccw: true,
             },
         };
-        plans.insert(id, Trajectory { path, speed, accel: 0.1 });
+        plans.insert(
+            id,
+            Trajectory {
+                path,
+                speed,
+                accel: 0.1,
+            },
+        );
     }
     if plans.is_empty() {
         link.shutdown().await;
@@ -196,7 +233,9 @@ pub async fn run_fleet(
     }
     let mut ctl = TrajectoryFollower::new(plans);
     let f2 = fleet.clone();
-    let mut lp = ControlLoop::new(link.clone(), poses.table.clone(), move |id, kind| f2.params_for(id, kind));
+    let mut lp = ControlLoop::new(link.clone(), poses.table.clone(), move |id, kind| {
+        f2.params_for(id, kind)
+    });
     let mut folder = RunFolder::create(runs_dir, &fleet.config.name)?;
     let pb = progress_bar((ctl.duration() + ctl.settle) * 10.0, "driving");
     let summary = lp.run(&mut ctl, Some(&mut folder), Some(&pb)).await;
@@ -293,7 +332,9 @@ pub fn describe(report: &RunReport) -> String {
             t.mean_error * 1e3,
             t.max_error * 1e3,
             l.map(|l| 100.0 * l.rx_loss()).unwrap_or(0.0),
-            l.and_then(|l| l.rtt_avg_ms).map(|x| format!("{x:.2} ms")).unwrap_or_else(|| "-".into()),
+            l.and_then(|l| l.rtt_avg_ms)
+                .map(|x| format!("{x:.2} ms"))
+                .unwrap_or_else(|| "-".into()),
         ));
     }
     s.push_str(&format!(

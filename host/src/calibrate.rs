@@ -197,8 +197,20 @@ pub fn fit_gains(data: &[(f64, f64, f64, f64)], m_min: f64) -> (f64, f64, f64, f
     let k_v = slope(&mean, &v);
     let k_w = slope(&diff, &w);
     let n = used.len().max(1) as f64;
-    let rms_v = (mean.iter().zip(&v).map(|(m, v)| (k_v * m - v).powi(2)).sum::<f64>() / n).sqrt();
-    let rms_w = (diff.iter().zip(&w).map(|(d, w)| (k_w * d - w).powi(2)).sum::<f64>() / n).sqrt();
+    let rms_v = (mean
+        .iter()
+        .zip(&v)
+        .map(|(m, v)| (k_v * m - v).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    let rms_w = (diff
+        .iter()
+        .zip(&w)
+        .map(|(d, w)| (k_w * d - w).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
     (k_v, k_w, rms_v, rms_w)
 }
 
@@ -207,7 +219,11 @@ pub fn fit_gains(data: &[(f64, f64, f64, f64)], m_min: f64) -> (f64, f64, f64, f
 /// (0, b_v).
 pub fn fit_butterfly(meas: &[(f64, f64, f64, f64)]) -> ([f64; 2], [f64; 2]) {
     let straight = |d: &&(f64, f64, f64, f64)| (d.0 - d.1).abs() <= 1e-9;
-    let b_v = meas.iter().filter(straight).map(|d| d.2.abs()).fold(0.0, f64::max);
+    let b_v = meas
+        .iter()
+        .filter(straight)
+        .map(|d| d.2.abs())
+        .fold(0.0, f64::max);
     let turn = meas
         .iter()
         .max_by(|x, y| x.3.abs().total_cmp(&y.3.abs()))
@@ -324,10 +340,21 @@ pub async fn calibrate(
     for _ in 0..plan.dead_band_steps {
         let mid = 0.5 * (lo + hi);
         drive_and_collect(link, poses, robot, stop.clone(), 0.25, 0.0, None).await;
-        let c = drive_and_collect(link, poses, robot, plan.mode.message(mid, mid), 0.05, 0.7, None).await;
+        let c = drive_and_collect(
+            link,
+            poses,
+            robot,
+            plan.mode.message(mid, mid),
+            0.05,
+            0.7,
+            None,
+        )
+        .await;
         let moved = match (c.samples.first(), c.samples.last()) {
             (Some(a), Some(b)) => ((b.x - a.x).powi(2) + (b.y - a.y).powi(2)).sqrt(),
-            _ => anyhow::bail!("robot {robot}: no poses while calibrating (is motion capture running?)"),
+            _ => anyhow::bail!(
+                "robot {robot}: no poses while calibrating (is motion capture running?)"
+            ),
         };
         dead_band_trials.push((mid, moved));
         if moved > plan.moved_threshold {
@@ -342,7 +369,16 @@ pub async fn calibrate(
     let m_min = hi;
     let mut measurements = Vec::new();
     for &(r, l) in &plan.pairs {
-        let c = drive_and_collect(link, poses, robot, plan.mode.message(r, l), plan.settle, plan.hold, truth.as_ref()).await;
+        let c = drive_and_collect(
+            link,
+            poses,
+            robot,
+            plan.mode.message(r, l),
+            plan.settle,
+            plan.hold,
+            truth.as_ref(),
+        )
+        .await;
         let Some((v, omega)) = velocity_of(&c.samples) else {
             anyhow::bail!("robot {robot}: too few poses for pair ({r}, {l})");
         };
@@ -366,7 +402,10 @@ pub async fn calibrate(
         }
     }
     link.command(robot, HostMsg::Stop).await;
-    let data: Vec<_> = measurements.iter().map(|m| (m.m_r, m.m_l, m.v, m.omega)).collect();
+    let data: Vec<_> = measurements
+        .iter()
+        .map(|m| (m.m_r, m.m_l, m.v, m.omega))
+        .collect();
     let (k_v, k_omega, rms_v, rms_omega) = fit_gains(&data, m_min);
     let (a, b) = fit_butterfly(&data);
     let truth_data: Vec<_> = measurements
@@ -435,49 +474,110 @@ pub fn plot_fit(path: &Path, cal: &Calibration) -> Result<(), String> {
     let unit = cal.plan.mode.unit();
     let fs = f.m_max;
     // v against mean command.
-    let vmax = cal.measurements.iter().map(|m| m.v.abs()).fold(f.b[0], f64::max) * 1.1 + 1e-6;
+    let vmax = cal
+        .measurements
+        .iter()
+        .map(|m| m.v.abs())
+        .fold(f.b[0], f64::max)
+        * 1.1
+        + 1e-6;
     let mut c = ChartBuilder::on(&panels[0])
-        .caption(format!("v = k_v (M_r+M_l)/2, k_v = {:.3e}", f.k_v), ("sans-serif", 16))
+        .caption(
+            format!("v = k_v (M_r+M_l)/2, k_v = {:.3e}", f.k_v),
+            ("sans-serif", 16),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
         .build_cartesian_2d(-fs..fs, -vmax..vmax)
         .map_err(|x| e(&x))?;
-    c.configure_mesh().x_desc(format!("mean command ({unit})")).y_desc("v (m/s)").draw().map_err(|x| e(&x))?;
-    c.draw_series(cal.measurements.iter().map(|m| Circle::new(((m.m_r + m.m_l) / 2.0, m.v), 4, BLUE.filled())))
+    c.configure_mesh()
+        .x_desc(format!("mean command ({unit})"))
+        .y_desc("v (m/s)")
+        .draw()
         .map_err(|x| e(&x))?;
-    c.draw_series(LineSeries::new([(-fs, -f.k_v * fs), (fs, f.k_v * fs)], RED.stroke_width(2)))
-        .map_err(|x| e(&x))?;
+    c.draw_series(
+        cal.measurements
+            .iter()
+            .map(|m| Circle::new(((m.m_r + m.m_l) / 2.0, m.v), 4, BLUE.filled())),
+    )
+    .map_err(|x| e(&x))?;
+    c.draw_series(LineSeries::new(
+        [(-fs, -f.k_v * fs), (fs, f.k_v * fs)],
+        RED.stroke_width(2),
+    ))
+    .map_err(|x| e(&x))?;
     // ω against difference.
-    let wmax = cal.measurements.iter().map(|m| m.omega.abs()).fold(f.a[1].abs(), f64::max) * 1.1 + 1e-6;
+    let wmax = cal
+        .measurements
+        .iter()
+        .map(|m| m.omega.abs())
+        .fold(f.a[1].abs(), f64::max)
+        * 1.1
+        + 1e-6;
     let dmax = 2.0 * fs;
     let mut c = ChartBuilder::on(&panels[1])
-        .caption(format!("ω = k_ω (M_r−M_l), k_ω = {:.3e}", f.k_omega), ("sans-serif", 16))
+        .caption(
+            format!("ω = k_ω (M_r−M_l), k_ω = {:.3e}", f.k_omega),
+            ("sans-serif", 16),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
         .build_cartesian_2d(-dmax..dmax, -wmax..wmax)
         .map_err(|x| e(&x))?;
-    c.configure_mesh().x_desc(format!("command difference ({unit})")).y_desc("ω (rad/s)").draw().map_err(|x| e(&x))?;
-    c.draw_series(cal.measurements.iter().map(|m| Circle::new((m.m_r - m.m_l, m.omega), 4, BLUE.filled())))
+    c.configure_mesh()
+        .x_desc(format!("command difference ({unit})"))
+        .y_desc("ω (rad/s)")
+        .draw()
         .map_err(|x| e(&x))?;
-    c.draw_series(LineSeries::new([(-dmax, -f.k_omega * dmax), (dmax, f.k_omega * dmax)], RED.stroke_width(2)))
-        .map_err(|x| e(&x))?;
+    c.draw_series(
+        cal.measurements
+            .iter()
+            .map(|m| Circle::new((m.m_r - m.m_l, m.omega), 4, BLUE.filled())),
+    )
+    .map_err(|x| e(&x))?;
+    c.draw_series(LineSeries::new(
+        [(-dmax, -f.k_omega * dmax), (dmax, f.k_omega * dmax)],
+        RED.stroke_width(2),
+    ))
+    .map_err(|x| e(&x))?;
     // Butterfly.
     let mut c = ChartBuilder::on(&panels[2])
-        .caption(format!("butterfly A = ({:.3}, {:.2}), B = ({:.3}, 0)", f.a[0], f.a[1], f.b[0]), ("sans-serif", 16))
+        .caption(
+            format!(
+                "butterfly A = ({:.3}, {:.2}), B = ({:.3}, 0)",
+                f.a[0], f.a[1], f.b[0]
+            ),
+            ("sans-serif", 16),
+        )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(55)
         .build_cartesian_2d(-vmax..vmax, -wmax..wmax)
         .map_err(|x| e(&x))?;
-    c.configure_mesh().x_desc("v (m/s)").y_desc("ω (rad/s)").draw().map_err(|x| e(&x))?;
-    c.draw_series(cal.measurements.iter().map(|m| Circle::new((m.v, m.omega), 4, BLUE.filled())))
+    c.configure_mesh()
+        .x_desc("v (m/s)")
+        .y_desc("ω (rad/s)")
+        .draw()
         .map_err(|x| e(&x))?;
+    c.draw_series(
+        cal.measurements
+            .iter()
+            .map(|m| Circle::new((m.v, m.omega), 4, BLUE.filled())),
+    )
+    .map_err(|x| e(&x))?;
     let (av, aw, bv) = (f.a[0], f.a[1].abs(), f.b[0]);
     for s in [1.0, -1.0] {
-        let wing = vec![(0.0, 0.0), (s * av, -aw), (s * bv, 0.0), (s * av, aw), (0.0, 0.0)];
-        c.draw_series(LineSeries::new(wing, RED.stroke_width(2))).map_err(|x| e(&x))?;
+        let wing = vec![
+            (0.0, 0.0),
+            (s * av, -aw),
+            (s * bv, 0.0),
+            (s * av, aw),
+            (0.0, 0.0),
+        ];
+        c.draw_series(LineSeries::new(wing, RED.stroke_width(2)))
+            .map_err(|x| e(&x))?;
     }
     root.present().map_err(|x| e(&x))
 }
@@ -486,11 +586,29 @@ pub fn plot_fit(path: &Path, cal: &Calibration) -> Result<(), String> {
 pub fn describe(cal: &Calibration) -> String {
     let f = cal.fit;
     let mut s = String::new();
-    let _ = writeln!(s, "robot {} ({} pairs, {}):", cal.robot, cal.measurements.len(), cal.plan.mode.unit());
-    let _ = writeln!(s, "  k_v   = {:.5e} m/s per unit   (rms residual {:.4} m/s)", f.k_v, f.rms_v);
-    let _ = writeln!(s, "  k_ω   = {:.5e} rad/s per unit (rms residual {:.4} rad/s)", f.k_omega, f.rms_omega);
+    let _ = writeln!(
+        s,
+        "robot {} ({} pairs, {}):",
+        cal.robot,
+        cal.measurements.len(),
+        cal.plan.mode.unit()
+    );
+    let _ = writeln!(
+        s,
+        "  k_v   = {:.5e} m/s per unit   (rms residual {:.4} m/s)",
+        f.k_v, f.rms_v
+    );
+    let _ = writeln!(
+        s,
+        "  k_ω   = {:.5e} rad/s per unit (rms residual {:.4} rad/s)",
+        f.k_omega, f.rms_omega
+    );
     let _ = writeln!(s, "  M_min = {:.1}, M_max = {:.0}", f.m_min, f.m_max);
-    let _ = writeln!(s, "  butterfly A = ({:.4}, {:.3}), B = ({:.4}, 0)", f.a[0], f.a[1], f.b[0]);
+    let _ = writeln!(
+        s,
+        "  butterfly A = ({:.4}, {:.3}), B = ({:.4}, 0)",
+        f.a[0], f.a[1], f.b[0]
+    );
     if let Some((kv, kw)) = cal.truth_fit {
         let _ = writeln!(
             s,
@@ -515,15 +633,22 @@ pub async fn run_cli(
         Mode::Speed => format!("robot-{robot}.toml"),
         Mode::Duty => format!("robot-{robot}-duty.toml"),
     };
-    let out: PathBuf = out.map(Path::to_path_buf).unwrap_or_else(|| folder.dir().join(name));
+    let out: PathBuf = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| folder.dir().join(name));
     let (cal, base, m_min_truth) = match fleet {
         Some(f) => {
             let (link, poses) = crate::app::start_host(f).await?;
-            if !link.wait_for_robots(1, Duration::from_secs(10)).await || !link.online().contains(&robot) {
+            if !link.wait_for_robots(1, Duration::from_secs(10)).await
+                || !link.online().contains(&robot)
+            {
                 link.shutdown().await;
                 anyhow::bail!("robot {robot} did not come online within 10 s");
             }
-            let kind = link.status(robot).and_then(|s| s.kind).unwrap_or(RobotKind::NonPilot);
+            let kind = link
+                .status(robot)
+                .and_then(|s| s.kind)
+                .unwrap_or(RobotKind::NonPilot);
             let plan = Plan::default_for(mode, kind);
             let pb = crate::app::progress_bar(plan.steps() as f64, "calibrating");
             let cal = calibrate(&link, &poses.table, robot, &plan, Some(&pb), None).await;
@@ -546,13 +671,23 @@ pub async fn run_cli(
             h.wait_ready(1, Duration::from_secs(5)).await?;
             let plan = Plan::default_for(mode, RobotKind::NonPilot);
             let pb = crate::app::progress_bar(plan.steps() as f64, "calibrating");
-            let cal = calibrate(&h.link, &h.poses.table, robot, &plan, Some(&pb), Some(sim_probe(&h, robot))).await;
+            let cal = calibrate(
+                &h.link,
+                &h.poses.table,
+                robot,
+                &plan,
+                Some(&pb),
+                Some(sim_probe(&h, robot)),
+            )
+            .await;
             pb.finish_and_clear();
             let base = h.params.robot(RobotKind::NonPilot).clone();
             let v = h.fleet.ground_truth().robot(robot).map(|r| r.battery_v);
             h.shutdown().await;
             let truth = match (mode, v) {
-                (Mode::Duty, Some(v)) => Some(1000.0 * f64::from(base.plant.dead_band_duty(v as f32))),
+                (Mode::Duty, Some(v)) => {
+                    Some(1000.0 * f64::from(base.plant.dead_band_duty(v as f32)))
+                }
                 _ => None,
             };
             (cal?, base, truth)
@@ -566,7 +701,11 @@ pub async fn run_cli(
     folder.finish()?;
     let mut s = describe(&cal);
     if let Some(t) = m_min_truth {
-        let _ = writeln!(s, "  simulator dead-band M_min = {t:.1} ({:+.2} %)", 100.0 * (cal.fit.m_min / t - 1.0));
+        let _ = writeln!(
+            s,
+            "  simulator dead-band M_min = {t:.1} ({:+.2} %)",
+            100.0 * (cal.fit.m_min / t - 1.0)
+        );
     }
     let _ = writeln!(s, "parameter file: {}", out.display());
     let _ = writeln!(s, "plot: {}", plot.display());
@@ -602,7 +741,10 @@ mod tests {
             .map(|&(r, l)| (r, l, kv * (r + l) / 2.0 * 1.001, kw * (r - l) * 0.999))
             .collect();
         let (fv, fw, rv, rw) = fit_gains(&data, 20.0);
-        assert!((fv / kv - 1.0).abs() < 0.002 && (fw / kw - 1.0).abs() < 0.002, "{fv} {fw}");
+        assert!(
+            (fv / kv - 1.0).abs() < 0.002 && (fw / kw - 1.0).abs() < 0.002,
+            "{fv} {fw}"
+        );
         assert!(rv < 1e-3 && rw < 1e-2);
         let (a, b) = fit_butterfly(&data);
         assert!((b[0] - kv * 450.0 * 1.001).abs() < 1e-9);
@@ -614,14 +756,21 @@ mod tests {
         let (v, w) = (0.06, 1.2);
         let mut rng_state = 12345u64;
         let mut noise = || {
-            rng_state = rng_state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            rng_state = rng_state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((rng_state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.001
         };
         let samples: Vec<_> = (0..80)
             .map(|i| {
                 let t = f64::from(i) * 0.01;
                 let th = w * t;
-                PoseSample { t, x: v / w * th.sin() + noise(), y: v / w * (1.0 - th.cos()) + noise(), theta: wrap_angle(th) }
+                PoseSample {
+                    t,
+                    x: v / w * th.sin() + noise(),
+                    y: v / w * (1.0 - th.cos()) + noise(),
+                    theta: wrap_angle(th),
+                }
             })
             .collect();
         let (ev, ew) = velocity_of(&samples).expect("enough");
@@ -631,8 +780,24 @@ mod tests {
     #[test]
     fn parameter_file_round_trips() {
         let plan = Plan::default_for(Mode::Speed, RobotKind::NonPilot);
-        let fit = Fit { k_v: 0.0018, k_omega: 0.045, m_min: 12.5, m_max: 450.0, a: [0.02, -2.0], b: [0.8, 0.0], rms_v: 0.0, rms_omega: 0.0 };
-        let cal = Calibration { robot: 3, plan, measurements: vec![], dead_band_trials: vec![], fit, truth_fit: None };
+        let fit = Fit {
+            k_v: 0.0018,
+            k_omega: 0.045,
+            m_min: 12.5,
+            m_max: 450.0,
+            a: [0.02, -2.0],
+            b: [0.8, 0.0],
+            rms_v: 0.0,
+            rms_omega: 0.0,
+        };
+        let cal = Calibration {
+            robot: 3,
+            plan,
+            measurements: vec![],
+            dead_band_trials: vec![],
+            fit,
+            truth_fit: None,
+        };
         let p = apply(&RobotParams::default(), &fit);
         let path = std::env::temp_dir().join(format!("pb-cal-{}.toml", std::process::id()));
         write_params(&path, &p, &cal).expect("write");

@@ -114,10 +114,7 @@ impl Default for PoseSection {
     fn default() -> Self {
         PoseSection {
             source: PoseSourceKind::Pbp1,
-            bind: SocketAddr::from((
-                [127, 0, 0, 1],
-                puzzlebot_protocol::pose::DEFAULT_POSE_PORT,
-            )),
+            bind: SocketAddr::from(([127, 0, 0, 1], puzzlebot_protocol::pose::DEFAULT_POSE_PORT)),
             natnet_version: "4.1".into(),
             up_axis: UpAxis::Y,
         }
@@ -265,11 +262,7 @@ mod tests {
     fn loads_a_full_config() {
         let d = dir();
         write_new_key(&d.join("fleet.key")).expect("key");
-        std::fs::write(
-            d.join("r2.toml"),
-            "[drive]\nk_v = 0.002\n",
-        )
-        .expect("write");
+        std::fs::write(d.join("r2.toml"), "[drive]\nk_v = 0.002\n").expect("write");
         std::fs::write(
             d.join("fleet.toml"),
             "name = \"lab\"\nkey_file = \"fleet.key\"\n[[robots]]\nid = 1\nkind = \"NonPilot\"\n[[robots]]\nid = 2\nkind = \"Pilot\"\nparams = \"r2.toml\"\n[params.rates]\noffline_after_ms = 250\n",
@@ -287,10 +280,16 @@ mod tests {
         let d = dir();
         write_new_key(&d.join("fleet.key")).expect("key");
         let p = d.join("fleet.toml");
-        std::fs::write(&p, "key_file = \"fleet.key\"\n[[robots]]\nid = 1\nkind = \"Tank\"\n")
-            .expect("write");
+        std::fs::write(
+            &p,
+            "key_file = \"fleet.key\"\n[[robots]]\nid = 1\nkind = \"Tank\"\n",
+        )
+        .expect("write");
         let msg = Fleet::load(&p).expect_err("bad kind").to_string();
-        assert!(msg.contains("fleet.toml:4:") && msg.contains("Tank"), "{msg}");
+        assert!(
+            msg.contains("fleet.toml:4:") && msg.contains("Tank"),
+            "{msg}"
+        );
         std::fs::write(&p, "key_file = \"fleet.key\"\n[link]\nbind = 5\n").expect("write");
         let msg = Fleet::load(&p).expect_err("bad bind").to_string();
         assert!(msg.contains("fleet.toml:3:"), "{msg}");
@@ -300,6 +299,9 @@ mod tests {
         std::fs::write(d.join("bad.key"), "xyz").expect("write");
         std::fs::write(&p, "key_file = \"bad.key\"\n").expect("write");
         let msg = Fleet::load(&p).expect_err("bad key").to_string();
-        assert!(msg.contains("bad.key") && msg.contains("64 hexadecimal"), "{msg}");
+        assert!(
+            msg.contains("bad.key") && msg.contains("64 hexadecimal"),
+            "{msg}"
+        );
     }
 }

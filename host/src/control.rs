@@ -14,7 +14,9 @@ use puzzlebot_params::{RobotKind, RobotParams};
 use puzzlebot_protocol::{messages::RobotId, HostMsg};
 use serde::Serialize;
 
-use crate::drive::{wrap_angle, DriveMap, PoseSample, Stabiliser, StabiliserGains, Twist, VelocityEstimator};
+use crate::drive::{
+    wrap_angle, DriveMap, PoseSample, Stabiliser, StabiliserGains, Twist, VelocityEstimator,
+};
 use crate::link::FleetLink;
 use crate::pose::PoseTable;
 use crate::report::RunFolder;
@@ -125,10 +127,19 @@ impl Path {
     fn at(&self, s: f64) -> ([f64; 3], f64) {
         match *self {
             Path::Line { start, heading, .. } => (
-                [start[0] + s * heading.cos(), start[1] + s * heading.sin(), heading],
+                [
+                    start[0] + s * heading.cos(),
+                    start[1] + s * heading.sin(),
+                    heading,
+                ],
                 0.0,
             ),
-            Path::Circle { center, radius, phase, ccw } => {
+            Path::Circle {
+                center,
+                radius,
+                phase,
+                ccw,
+            } => {
                 let dir = if ccw { 1.0 } else { -1.0 };
                 let a = phase + dir * s / radius;
                 (
@@ -220,7 +231,8 @@ pub fn track(reference: RefState, pose: PoseSample, g: TrackerGains) -> Twist {
     let eth = wrap_angle(reference.theta - pose.theta);
     let vr = reference.v.abs().max(0.02);
     let v = reference.v * eth.cos() + g.k_x * ex;
-    let omega = reference.omega + g.omega_n * g.omega_n / vr * ey * reference.v.signum().max(0.0)
+    let omega = reference.omega
+        + g.omega_n * g.omega_n / vr * ey * reference.v.signum().max(0.0)
         + 2.0 * g.zeta * g.omega_n * eth.sin();
     Twist::new(v, omega)
 }
@@ -250,7 +262,10 @@ impl TrajectoryFollower {
 
     /// Longest trajectory (s).
     pub fn duration(&self) -> f64 {
-        self.plans.values().map(Trajectory::duration).fold(0.0, f64::max)
+        self.plans
+            .values()
+            .map(Trajectory::duration)
+            .fold(0.0, f64::max)
     }
 }
 
@@ -438,14 +453,23 @@ impl ControlLoop {
                 pb.set_position((t * 10.0) as u64);
             }
             let statuses = self.link.statuses();
-            let online: Vec<_> = statuses.iter().filter(|s| s.online && s.established).collect();
-            let mut view = FleetView { t: now, robots: Vec::new() };
+            let online: Vec<_> = statuses
+                .iter()
+                .filter(|s| s.online && s.established)
+                .collect();
+            let mut view = FleetView {
+                t: now,
+                robots: Vec::new(),
+            };
             for s in &online {
                 let kind = s.kind.unwrap_or(RobotKind::NonPilot);
                 let r = robots.entry(s.id).or_insert_with(|| {
                     let p = (self.params)(s.id, kind);
                     PerRobot {
-                        stab: Stabiliser::new(DriveMap::from_params_or_geometric(&p), self.options.gains),
+                        stab: Stabiliser::new(
+                            DriveMap::from_params_or_geometric(&p),
+                            self.options.gains,
+                        ),
                         est: VelocityEstimator::new(self.options.velocity_window),
                         last_pose_t: f64::NEG_INFINITY,
                         stats: TrackingStats::default(),
@@ -478,7 +502,9 @@ impl ControlLoop {
             }
             let truth = self.truth.as_ref().map(|f| f());
             for rv in &view.robots {
-                let Some(r) = robots.get_mut(&rv.id) else { continue };
+                let Some(r) = robots.get_mut(&rv.id) else {
+                    continue;
+                };
                 let status = online.iter().find(|s| s.id == rv.id);
                 let want = desired.get(&rv.id).copied();
                 let mut wheels = None;
@@ -507,7 +533,11 @@ impl ControlLoop {
                                 let _ = f.event(&serde_json::json!({"t": now, "robot": rv.id, "event": "pose_back"}));
                             }
                         }
-                        let measured = if self.options.stabilise { rv.velocity } else { None };
+                        let measured = if self.options.stabilise {
+                            rv.velocity
+                        } else {
+                            None
+                        };
                         let wt = r.stab.step(w, measured, dt);
                         wheels = Some([wt.left_rpm, wt.right_rpm]);
                         self.link
@@ -607,12 +637,20 @@ mod tests {
     #[test]
     fn trajectory_profile_reaches_the_end_with_feed_forward() {
         let tr = Trajectory {
-            path: Path::Circle { center: [0.0, 0.0], radius: 0.1, phase: -std::f64::consts::FRAC_PI_2, ccw: true },
+            path: Path::Circle {
+                center: [0.0, 0.0],
+                radius: 0.1,
+                phase: -std::f64::consts::FRAC_PI_2,
+                ccw: true,
+            },
             speed: 0.05,
             accel: 0.1,
         };
         let d = tr.duration();
-        assert!((d - (2.0 * std::f64::consts::PI * 0.1 / 0.05 + 0.5)).abs() < 1e-9, "{d}");
+        assert!(
+            (d - (2.0 * std::f64::consts::PI * 0.1 / 0.05 + 0.5)).abs() < 1e-9,
+            "{d}"
+        );
         let s0 = tr.at(0.0);
         assert!((s0.x - 0.0).abs() < 1e-12 && (s0.y + 0.1).abs() < 1e-12 && s0.theta.abs() < 1e-12);
         let mid = tr.at(d / 2.0);
@@ -624,12 +662,21 @@ mod tests {
     #[test]
     fn tracker_converges_on_an_ideal_unicycle() {
         let tr = Trajectory {
-            path: Path::Line { start: [0.0, 0.0], heading: 0.3, length: 0.4 },
+            path: Path::Line {
+                start: [0.0, 0.0],
+                heading: 0.3,
+                length: 0.4,
+            },
             speed: 0.06,
             accel: 0.1,
         };
         // Start 1 cm off the line and 0.1 rad off heading.
-        let mut p = PoseSample { t: 0.0, x: 0.0, y: 0.01, theta: 0.4 };
+        let mut p = PoseSample {
+            t: 0.0,
+            x: 0.0,
+            y: 0.01,
+            theta: 0.4,
+        };
         let dt = 1.0 / 30.0;
         let mut err = 0.0;
         while p.t < tr.duration() {

@@ -246,7 +246,8 @@ impl DriveMap {
         let cw = self.k_omega;
         // f = μv (cv r + cv l − v)² + μω (cw r − cw l − ω)²
         let f = |r: f64, l: f64| {
-            self.mu_v * (cv * (r + l) - t.v).powi(2) + self.mu_omega * (cw * (r - l) - t.omega).powi(2)
+            self.mu_v * (cv * (r + l) - t.v).powi(2)
+                + self.mu_omega * (cw * (r - l) - t.omega).powi(2)
         };
         let intervals = [
             (-self.m_max, -self.m_min),
@@ -449,10 +450,12 @@ pub struct StabiliserGains {
 impl Default for StabiliserGains {
     fn default() -> Self {
         StabiliserGains {
-            kp_v: 0.3,
-            ki_v: 3.0,
-            kp_omega: 0.3,
-            ki_omega: 3.0,
+            // Small proportional terms: the pose-derived velocity is ~0.1 s late (window,
+            // link, wheel response); larger kp made the 30 Hz loop chatter in simulation.
+            kp_v: 0.1,
+            ki_v: 2.0,
+            kp_omega: 0.1,
+            ki_omega: 2.0,
             max_correction: 0.5,
         }
     }
@@ -543,13 +546,18 @@ mod tests {
         let tiny = m.wheels(Twist::new(m.k_v * m.m_min * 0.3, 0.0));
         assert_eq!(tiny, WheelTargets::default());
         let small = m.wheels(Twist::new(m.k_v * m.m_min * 0.8, 0.0));
-        assert!((small.left_rpm - m.m_min).abs() < 1e-9 && (small.right_rpm - m.m_min).abs() < 1e-9);
+        assert!(
+            (small.left_rpm - m.m_min).abs() < 1e-9 && (small.right_rpm - m.m_min).abs() < 1e-9
+        );
         let huge = m.wheels(Twist::new(10.0, 0.0));
         assert!((huge.left_rpm - m.m_max).abs() < 1e-9);
         // Turning in place where one wheel would need less than M_min.
         let w = m.wheels(Twist::new(m.k_v * m.m_min * 1.5, 2.0 * m.k_omega * m.m_min));
         for x in [w.left_rpm, w.right_rpm] {
-            assert!(x == 0.0 || (m.m_min - 1e-9..=m.m_max + 1e-9).contains(&x.abs()), "{w:?}");
+            assert!(
+                x == 0.0 || (m.m_min - 1e-9..=m.m_max + 1e-9).contains(&x.abs()),
+                "{w:?}"
+            );
         }
         assert_eq!(m.wheels(Twist::new(f64::NAN, 0.0)), WheelTargets::default());
     }
@@ -562,14 +570,28 @@ mod tests {
             m.mu_v * (c.v - t.v).powi(2) + m.mu_omega * (c.omega - t.omega).powi(2)
         };
         let feasible = |x: f64| x == 0.0 || (m.m_min..=m.m_max).contains(&x.abs());
-        let grid: Vec<f64> = (-900..=900).map(|i| f64::from(i) * 0.5).filter(|x| feasible(*x)).collect();
-        for t in [Twist::new(0.03, 3.0), Twist::new(-0.5, 1.0), Twist::new(0.01, -0.3), Twist::new(0.2, 20.0)] {
+        let grid: Vec<f64> = (-900..=900)
+            .map(|i| f64::from(i) * 0.5)
+            .filter(|x| feasible(*x))
+            .collect();
+        for t in [
+            Twist::new(0.03, 3.0),
+            Twist::new(-0.5, 1.0),
+            Twist::new(0.01, -0.3),
+            Twist::new(0.2, 20.0),
+        ] {
             let w = m.wheels(t);
             assert!(feasible(w.left_rpm) && feasible(w.right_rpm), "{w:?}");
             let mut best = f64::INFINITY;
             for &r in &grid {
                 for &l in grid.iter().step_by(3) {
-                    best = best.min(f(t, WheelTargets { left_rpm: l, right_rpm: r }));
+                    best = best.min(f(
+                        t,
+                        WheelTargets {
+                            left_rpm: l,
+                            right_rpm: r,
+                        },
+                    ));
                 }
             }
             assert!(f(t, w) <= best + 1e-9, "{t:?}: {} > {best}", f(t, w));
@@ -600,10 +622,18 @@ mod tests {
             let t = f64::from(i) * 0.01;
             let th = 3.0 + w * t; // crosses ±π: unwrapping matters
             let (x, y) = ((v / w) * th.sin(), -(v / w) * th.cos());
-            e.push(PoseSample { t, x, y, theta: wrap_angle(th) });
+            e.push(PoseSample {
+                t,
+                x,
+                y,
+                theta: wrap_angle(th),
+            });
         }
         let est = e.estimate().expect("enough samples");
-        assert!((est.v - v).abs() < 1e-3 && (est.omega - w).abs() < 1e-6, "{est:?}");
+        assert!(
+            (est.v - v).abs() < 1e-3 && (est.omega - w).abs() < 1e-6,
+            "{est:?}"
+        );
     }
 
     #[test]
@@ -619,6 +649,9 @@ mod tests {
             measured = Some(Twist::new(real.v * 0.6, real.omega * 0.6));
         }
         let got = measured.expect("ran");
-        assert!((got.v - want.v).abs() < 1e-3 && (got.omega - want.omega).abs() < 1e-2, "{got:?}");
+        assert!(
+            (got.v - want.v).abs() < 1e-3 && (got.omega - want.omega).abs() < 1e-2,
+            "{got:?}"
+        );
     }
 }

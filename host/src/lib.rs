@@ -3,12 +3,12 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod app;
+pub mod calibrate;
 pub mod config;
+pub mod control;
 pub mod drive;
 pub mod link;
 pub mod pose;
-pub mod control;
 pub mod report;
-pub mod app;
-pub mod calibrate;
 pub mod simulated;

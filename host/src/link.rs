@@ -340,7 +340,9 @@ impl FleetLink {
     pub fn status(&self, id: RobotId) -> Option<RobotStatus> {
         let now = Instant::now();
         let st = self.inner.lock();
-        st.robots.get(&id).map(|r| status_of(&self.inner, id, r, now))
+        st.robots
+            .get(&id)
+            .map(|r| status_of(&self.inner, id, r, now))
     }
 
     /// Status of every known robot.
@@ -431,7 +433,13 @@ fn fresh_nonce() -> Nonce {
     n
 }
 
-fn note_rejection(inner: &Inner, st: &mut State, id: Option<RobotId>, why: Rejection, now: Instant) {
+fn note_rejection(
+    inner: &Inner,
+    st: &mut State,
+    id: Option<RobotId>,
+    why: Rejection,
+    now: Instant,
+) {
     let name = why.name();
     let count = match id.and_then(|i| st.robots.get_mut(&i)) {
         Some(r) => {
@@ -456,7 +464,12 @@ fn note_rejection(inner: &Inner, st: &mut State, id: Option<RobotId>, why: Rejec
 }
 
 /// Handle one datagram; returns a reply to send.
-fn handle(inner: &Inner, frame: &[u8], src: SocketAddr, now: Instant) -> Option<(Vec<u8>, SocketAddr)> {
+fn handle(
+    inner: &Inner,
+    frame: &[u8],
+    src: SocketAddr,
+    now: Instant,
+) -> Option<(Vec<u8>, SocketAddr)> {
     let mut st = inner.lock();
     let header = match peek_header(frame) {
         Ok(h) => h,
@@ -531,19 +544,26 @@ fn handle(inner: &Inner, frame: &[u8], src: SocketAddr, now: Instant) -> Option<
                     Some(last) if h.counter + 64 < last => {}
                     Some(last) if h.counter > last + 1 => r.stats.rx_lost += h.counter - last - 1,
                     // A late frame arrived after its gap was counted as lost.
-                    Some(last) if h.counter < last => r.stats.rx_lost = r.stats.rx_lost.saturating_sub(1),
+                    Some(last) if h.counter < last => {
+                        r.stats.rx_lost = r.stats.rx_lost.saturating_sub(1)
+                    }
                     _ => {}
                 }
-                if r.last_counter.is_none_or(|l| h.counter > l || h.counter + 64 < l) {
+                if r.last_counter
+                    .is_none_or(|l| h.counter > l || h.counter + 64 < l)
+                {
                     r.last_counter = Some(h.counter);
                 }
                 match msg {
                     RobotMsg::Telemetry(tm) => {
                         r.stats.telemetry += 1;
-                        if let Some(&(_, sent)) =
-                            r.sent_cmds.iter().find(|(c, _)| *c == tm.last_command_counter)
+                        if let Some(&(_, sent)) = r
+                            .sent_cmds
+                            .iter()
+                            .find(|(c, _)| *c == tm.last_command_counter)
                         {
-                            r.stats.command_echo_ms = Some(now.duration_since(sent).as_secs_f64() * 1e3);
+                            r.stats.command_echo_ms =
+                                Some(now.duration_since(sent).as_secs_f64() * 1e3);
                         }
                         r.telemetry = Some(tm);
                         r.telemetry_at = Some(now);
@@ -621,7 +641,9 @@ async fn stream_loop(inner: Arc<Inner>) {
             let mut st = inner.lock();
             let mut events = Vec::new();
             for (id, r) in st.robots.iter_mut() {
-                let silent = r.last_rx.is_none_or(|t| now.duration_since(t) >= offline_after);
+                let silent = r
+                    .last_rx
+                    .is_none_or(|t| now.duration_since(t) >= offline_after);
                 if r.online && silent {
                     r.online = false;
                     r.command = HostMsg::Stop;

@@ -9,7 +9,11 @@ use puzzlebot_host::{app, calibrate, config::Fleet};
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
 #[derive(Parser)]
-#[command(name = "puzzlebot", version, about = "PuzzleBot fleet host: link, poses, drive mapping, calibration")]
+#[command(
+    name = "puzzlebot",
+    version,
+    about = "PuzzleBot fleet host: link, poses, drive mapping, calibration"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Cmd>,
@@ -98,7 +102,10 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
-    let rt = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+    let rt = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");
@@ -124,13 +131,20 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{}", app::describe(&report));
             println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
         }
-        Cmd::Run { fleet, behaviour, size, speed, wait } => {
+        Cmd::Run {
+            fleet,
+            behaviour,
+            size,
+            speed,
+            wait,
+        } => {
             let fleet = Fleet::load(&fleet)?;
             let b = match behaviour {
                 BehaviourArg::Line => app::Behaviour::Line { length: size },
                 BehaviourArg::Circle => app::Behaviour::Circle { radius: size },
             };
-            let report = app::run_fleet(&fleet, b, speed, Duration::from_secs_f64(wait), &runs).await?;
+            let report =
+                app::run_fleet(&fleet, b, speed, Duration::from_secs_f64(wait), &runs).await?;
             print!("{}", app::describe(&report));
         }
         Cmd::Sim { scenario, fleet } => {
@@ -151,7 +165,10 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             for (id, addr) in sim.robot_addrs() {
                 println!("robot {id} on {addr}");
             }
-            println!("sending to host {} and poses to {}; Ctrl-C stops", fleet.config.link.bind, fleet.config.pose.bind);
+            println!(
+                "sending to host {} and poses to {}; Ctrl-C stops",
+                fleet.config.link.bind, fleet.config.pose.bind
+            );
             tokio::signal::ctrl_c().await?;
             sim.stop();
         }
@@ -174,7 +191,12 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             }
             link.shutdown().await;
         }
-        Cmd::Calibrate { robot, fleet, mode, out } => {
+        Cmd::Calibrate {
+            robot,
+            fleet,
+            mode,
+            out,
+        } => {
             let mode = match mode {
                 ModeArg::Speed => calibrate::Mode::Speed,
                 ModeArg::Duty => calibrate::Mode::Duty,
@@ -183,7 +205,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(p) => Some(Fleet::load(&p)?),
                 None => None,
             };
-            let report = calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
+            let report =
+                calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
             print!("{report}");
         }
     }

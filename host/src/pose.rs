@@ -115,7 +115,10 @@ impl PoseDecoder for NatNetDecoder {
 
     fn decode(&mut self, bytes: &[u8], out: &mut Vec<Observation>) -> Result<(), String> {
         let decoder = natnet::Decoder::new(self.version).map_err(|e| e.to_string())?;
-        let msg = decoder.parse(bytes).map_err(|e| e.to_string())?.into_message();
+        let msg = decoder
+            .parse(bytes)
+            .map_err(|e| e.to_string())?
+            .into_message();
         let natnet::Message::FrameOfData(frame) = msg else {
             // Model definitions and other messages carry no poses.
             return Ok(());
@@ -299,18 +302,40 @@ mod tests {
 
     #[tokio::test]
     async fn pbp1_stream_fills_the_table_and_goes_stale() {
-        let input = PoseInput::start("127.0.0.1:0".parse().expect("addr"), Pbp1Decoder, Instant::now())
-            .await
-            .expect("bind");
+        let input = PoseInput::start(
+            "127.0.0.1:0".parse().expect("addr"),
+            Pbp1Decoder,
+            Instant::now(),
+        )
+        .await
+        .expect("bind");
         let tx = UdpSocket::bind("127.0.0.1:0").await.expect("bind");
         let mut buf = [0u8; MAX_POSE_DATAGRAM];
         let bodies = [
-            BodyPose { robot_id: 4, x: 0.5, y: -0.25, z: 0.0, yaw: 1.0, tracked: true },
-            BodyPose { robot_id: 5, x: 0.0, y: 0.0, z: 0.0, yaw: 0.0, tracked: false },
+            BodyPose {
+                robot_id: 4,
+                x: 0.5,
+                y: -0.25,
+                z: 0.0,
+                yaw: 1.0,
+                tracked: true,
+            },
+            BodyPose {
+                robot_id: 5,
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                yaw: 0.0,
+                tracked: false,
+            },
         ];
         let n = encode_poses(1, 1, &bodies, &mut buf);
-        tx.send_to(&buf[..n], input.local_addr()).await.expect("send");
-        tx.send_to(b"garbage", input.local_addr()).await.expect("send");
+        tx.send_to(&buf[..n], input.local_addr())
+            .await
+            .expect("send");
+        tx.send_to(b"garbage", input.local_addr())
+            .await
+            .expect("send");
         let ms = std::time::Duration::from_millis;
         for _ in 0..200 {
             if input.table.stats().errors > 0 && input.table.latest(4).is_some() {
@@ -320,7 +345,10 @@ mod tests {
         }
         let p = input.table.fresh(4, ms(500)).expect("fresh");
         assert!((p.x - 0.5).abs() < 1e-6 && (p.theta - 1.0).abs() < 1e-6);
-        assert!(input.table.fresh(5, ms(500)).is_none(), "untracked reads as missing");
+        assert!(
+            input.table.fresh(5, ms(500)).is_none(),
+            "untracked reads as missing"
+        );
         assert!(input.table.fresh(6, ms(500)).is_none(), "never seen");
         assert_eq!(input.table.stats().errors, 1);
         tokio::time::sleep(ms(30)).await;
@@ -343,13 +371,25 @@ mod tests {
         d.decode(&wire, &mut out).expect("decode");
         assert_eq!(out.len(), 2);
         assert_eq!(out[0].robot, 3);
-        assert!((out[0].x - 0.2).abs() < 1e-6 && (out[0].y - 0.4).abs() < 1e-6, "{:?}", out[0]);
+        assert!(
+            (out[0].x - 0.2).abs() < 1e-6 && (out[0].y - 0.4).abs() < 1e-6,
+            "{:?}",
+            out[0]
+        );
         assert!((out[0].theta - f64::from(yaw)).abs() < 1e-5, "{:?}", out[0]);
         assert!(!out[1].tracked);
         // z-up: rotation about +z.
         let (s, c) = ((yaw / 2.0).sin(), (yaw / 2.0).cos());
         let wire = server
-            .datagram(11, 0.2, &[natnet::PlannedBody::tracked(3, [0.2, 0.3, 0.0], [0.0, 0.0, s, c])])
+            .datagram(
+                11,
+                0.2,
+                &[natnet::PlannedBody::tracked(
+                    3,
+                    [0.2, 0.3, 0.0],
+                    [0.0, 0.0, s, c],
+                )],
+            )
             .expect("encode");
         let mut d = NatNetDecoder::new("4.1", UpAxis::Z).expect("version");
         out.clear();

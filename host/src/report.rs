@@ -10,6 +10,9 @@ use plotters::prelude::*;
 use puzzlebot_protocol::messages::RobotId;
 use serde::Serialize;
 
+/// Picks one wheel-speed series out of a trace sample.
+type WheelGetter = fn(&(f64, f64, f64, f64, f64)) -> f64;
+
 /// One robot's traces kept for the plots.
 #[derive(Debug, Clone, Default)]
 pub struct Traces {
@@ -61,7 +64,13 @@ impl RunFolder {
     pub fn create(base: &Path, name: &str) -> std::io::Result<RunFolder> {
         let safe: String = name
             .chars()
-            .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
             .collect();
         let stamp = utc_stamp();
         let mut dir = base.join(format!("{stamp}-{safe}"));
@@ -122,7 +131,12 @@ impl RunFolder {
 }
 
 fn bounds(it: impl Iterator<Item = (f64, f64)>) -> ((f64, f64), (f64, f64)) {
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for (x, y) in it {
         if x.is_finite() && y.is_finite() {
             x0 = x0.min(x);
@@ -142,20 +156,27 @@ fn bounds(it: impl Iterator<Item = (f64, f64)>) -> ((f64, f64), (f64, f64)) {
 pub fn plot_trajectories(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Result<(), String> {
     let root = SVGBackend::new(path, (900, 800)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let ((x0, x1), (y0, y1)) = bounds(
-        traces
-            .values()
-            .flat_map(|t| t.actual.iter().chain(t.reference.iter()).map(|p| (p.1, p.2))),
-    );
+    let ((x0, x1), (y0, y1)) = bounds(traces.values().flat_map(|t| {
+        t.actual
+            .iter()
+            .chain(t.reference.iter())
+            .map(|p| (p.1, p.2))
+    }));
     // Equal scale on both axes.
     let span = (x1 - x0).max(y1 - y0);
     let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
     let mut chart = ChartBuilder::on(&root)
-        .caption("Trajectories (solid: measured, thin: reference)", ("sans-serif", 20))
+        .caption(
+            "Trajectories (solid: measured, thin: reference)",
+            ("sans-serif", 20),
+        )
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(55)
-        .build_cartesian_2d(cx - span / 2.0..cx + span / 2.0, cy - span / 2.0..cy + span / 2.0)
+        .build_cartesian_2d(
+            cx - span / 2.0..cx + span / 2.0,
+            cy - span / 2.0..cy + span / 2.0,
+        )
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
@@ -166,10 +187,16 @@ pub fn plot_trajectories(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Res
     for (i, (id, t)) in traces.iter().enumerate() {
         let c = Palette99::pick(i).to_rgba();
         chart
-            .draw_series(LineSeries::new(t.reference.iter().map(|p| (p.1, p.2)), c.mix(0.4).stroke_width(1)))
+            .draw_series(LineSeries::new(
+                t.reference.iter().map(|p| (p.1, p.2)),
+                c.mix(0.4).stroke_width(1),
+            ))
             .map_err(|e| e.to_string())?;
         chart
-            .draw_series(LineSeries::new(t.actual.iter().map(|p| (p.1, p.2)), c.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                t.actual.iter().map(|p| (p.1, p.2)),
+                c.stroke_width(2),
+            ))
             .map_err(|e| e.to_string())?
             .label(format!("robot {id}"))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
@@ -196,7 +223,10 @@ pub fn plot_wheels(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Result<()
                 .flat_map(|w| [(w.0, w.1), (w.0, w.2), (w.0, w.3), (w.0, w.4)]),
         );
         let mut chart = ChartBuilder::on(panel)
-            .caption(format!("robot {id}: wheel speed (thin: target, solid: measured)"), ("sans-serif", 16))
+            .caption(
+                format!("robot {id}: wheel speed (thin: target, solid: measured)"),
+                ("sans-serif", 16),
+            )
             .margin(10)
             .x_label_area_size(30)
             .y_label_area_size(50)
@@ -208,7 +238,7 @@ pub fn plot_wheels(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Result<()
             .y_desc("RPM")
             .draw()
             .map_err(|e| e.to_string())?;
-        let series: [(&str, RGBColor, fn(&(f64, f64, f64, f64, f64)) -> f64, u32); 4] = [
+        let series: [(&str, RGBColor, WheelGetter, u32); 4] = [
             ("left target", BLUE, |w| w.1, 1),
             ("right target", RED, |w| w.2, 1),
             ("left measured", BLUE, |w| w.3, 2),
@@ -216,10 +246,15 @@ pub fn plot_wheels(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Result<()
         ];
         for (name, color, get, width) in series {
             chart
-                .draw_series(LineSeries::new(t.wheels.iter().map(|w| (w.0, get(w))), color.stroke_width(width)))
+                .draw_series(LineSeries::new(
+                    t.wheels.iter().map(|w| (w.0, get(w))),
+                    color.stroke_width(width),
+                ))
                 .map_err(|e| e.to_string())?
                 .label(name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(width)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(width))
+                });
         }
         chart
             .configure_series_labels()
@@ -239,9 +274,14 @@ mod tests {
     fn folder_logs_and_plots() {
         let base = std::env::temp_dir().join(format!("pb-runs-{}", std::process::id()));
         let mut f = RunFolder::create(&base, "unit test").expect("create");
-        assert!(f.dir().file_name().and_then(|n| n.to_str()).is_some_and(|n| n.ends_with("-unit_test")));
+        assert!(f
+            .dir()
+            .file_name()
+            .and_then(|n| n.to_str())
+            .is_some_and(|n| n.ends_with("-unit_test")));
         f.telemetry(&serde_json::json!({"t": 0.0})).expect("write");
-        f.event(&serde_json::json!({"event": "start"})).expect("write");
+        f.event(&serde_json::json!({"event": "start"}))
+            .expect("write");
         let tr = f.traces.entry(1).or_default();
         for i in 0..20 {
             let t = f64::from(i) * 0.1;

@@ -40,9 +40,20 @@ impl SimHarness {
     pub async fn start_with_key(scenario: Scenario, key: FleetKey) -> anyhow::Result<SimHarness> {
         let mut cfg = LinkConfig::new("127.0.0.1:0".parse()?);
         cfg.rates = scenario.params.rates;
-        cfg.allowed = Some(scenario.robots.iter().map(|r| r.id).collect::<BTreeSet<_>>());
+        cfg.allowed = Some(
+            scenario
+                .robots
+                .iter()
+                .map(|r| r.id)
+                .collect::<BTreeSet<_>>(),
+        );
         let link = FleetLink::start(key.clone(), cfg).await?;
-        let poses = PoseInput::start("127.0.0.1:0".parse()?, Pbp1Decoder, tokio::time::Instant::now()).await?;
+        let poses = PoseInput::start(
+            "127.0.0.1:0".parse()?,
+            Pbp1Decoder,
+            tokio::time::Instant::now(),
+        )
+        .await?;
         let params = scenario.params.clone();
         let fleet = SimFleet::start(
             scenario,
@@ -101,9 +112,11 @@ impl SimHarness {
     /// A control loop over this harness, with the simulator's parameter set and ground truth.
     pub fn control_loop(&self) -> ControlLoop {
         let params = self.params.clone();
-        let mut l = ControlLoop::new(self.link.clone(), self.poses.table.clone(), move |_, kind: RobotKind| -> RobotParams {
-            params.robot(kind).clone()
-        });
+        let mut l = ControlLoop::new(
+            self.link.clone(),
+            self.poses.table.clone(),
+            move |_, kind: RobotKind| -> RobotParams { params.robot(kind).clone() },
+        );
         l.truth = Some(self.truth_probe());
         l
     }

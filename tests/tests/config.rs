@@ -19,7 +19,10 @@ fn malformed_fleet_config_names_file_line_and_field() {
         let msg = Fleet::load(&path).expect_err("malformed").to_string();
         println!("{msg}");
         let prefix = format!("{}:{line}:", path.display());
-        assert!(msg.starts_with(&prefix), "{msg:?} should start with {prefix:?}");
+        assert!(
+            msg.starts_with(&prefix),
+            "{msg:?} should start with {prefix:?}"
+        );
         for w in words {
             assert!(msg.contains(w), "{msg:?} should name {w:?}");
         }
@@ -27,7 +30,10 @@ fn malformed_fleet_config_names_file_line_and_field() {
     // Duplicate ids and a bad key file are named too.
     std::fs::write(&path, "key_file = \"fleet.key\"\n[[robots]]\nid = 1\nkind = \"NonPilot\"\n[[robots]]\nid = 1\nkind = \"Pilot\"\n").expect("write");
     let msg = Fleet::load(&path).expect_err("duplicate").to_string();
-    assert!(msg.contains("fleet.toml") && msg.contains("robots[1].id"), "{msg}");
+    assert!(
+        msg.contains("fleet.toml") && msg.contains("robots[1].id"),
+        "{msg}"
+    );
     std::fs::write(dir.join("short.key"), "abcd\n").expect("write");
     std::fs::write(&path, "key_file = \"short.key\"\n").expect("write");
     let msg = Fleet::load(&path).expect_err("bad key").to_string();

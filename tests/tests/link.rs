@@ -17,8 +17,12 @@ async fn sleep_ms(ms: u64) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn dropped_robot_goes_offline_within_300_ms_and_rejoins_with_a_new_session() {
-    let h = SimHarness::start(Scenario::grid(2, 3)).await.expect("start");
-    h.wait_ready(2, Duration::from_secs(5)).await.expect("ready");
+    let h = SimHarness::start(Scenario::grid(2, 3))
+        .await
+        .expect("start");
+    h.wait_ready(2, Duration::from_secs(5))
+        .await
+        .expect("ready");
     let sessions_before = h.link.status(2).expect("known").stats.sessions;
     h.link.drain_events();
     h.fleet.set_online(2, false);
@@ -41,7 +45,10 @@ async fn dropped_robot_goes_offline_within_300_ms_and_rejoins_with_a_new_session
     // The link's own clock: silence at the moment it was marked offline.
     let last_rx = h.link.now() - st.silent_s.expect("heard before");
     let detection = off.t - last_rx;
-    println!("offline detected {:.1} ms after the last datagram", detection * 1e3);
+    println!(
+        "offline detected {:.1} ms after the last datagram",
+        detection * 1e3
+    );
     let rates = h.link.rates();
     let check_period = 1.0 / f64::from(rates.command_hz) / 4.0;
     assert!(detection >= f64::from(rates.offline_after_ms) / 1e3 - check_period - 1e-3);
@@ -54,13 +61,27 @@ async fn dropped_robot_goes_offline_within_300_ms_and_rejoins_with_a_new_session
     assert!(h.link.online().contains(&1), "the other robot stays online");
     // Back on: a reboot with a fresh nonce gets a new session.
     h.fleet.set_online(2, true);
-    assert!(h.link.wait_for_robots(2, Duration::from_secs(5)).await, "robot 2 rejoined");
+    assert!(
+        h.link.wait_for_robots(2, Duration::from_secs(5)).await,
+        "robot 2 rejoined"
+    );
     let st = h.link.status(2).expect("known");
-    assert!(st.stats.sessions > sessions_before, "a new session was opened");
+    assert!(
+        st.stats.sessions > sessions_before,
+        "a new session was opened"
+    );
     assert!(st.stats.offline_events >= 1);
     // And it can be driven again.
     for _ in 0..30 {
-        h.link.command(2, HostMsg::WheelSpeed { left_rpm: 60.0, right_rpm: 60.0 }).await;
+        h.link
+            .command(
+                2,
+                HostMsg::WheelSpeed {
+                    left_rpm: 60.0,
+                    right_rpm: 60.0,
+                },
+            )
+            .await;
         sleep_ms(33).await;
     }
     let v = h.fleet.ground_truth().robot(2).map(|r| r.v).unwrap_or(0.0);
@@ -73,29 +94,56 @@ async fn host_crash_stops_robots_and_a_restarted_host_drives_them_under_new_sess
     let key = FleetKey([0x5a; 32]);
     let mut cfg = LinkConfig::new("127.0.0.1:0".parse().expect("addr"));
     cfg.allowed = Some(BTreeSet::from([1, 2]));
-    let link = FleetLink::start(key.clone(), cfg.clone()).await.expect("link");
+    let link = FleetLink::start(key.clone(), cfg.clone())
+        .await
+        .expect("link");
     let host_addr = link.local_addr().expect("addr");
     let fleet = SimFleet::start(
         Scenario::grid(2, 4),
-        SimOptions { fleet_key: key.clone(), host_addr, pose_addr: None, pace: Pace::RealTime },
+        SimOptions {
+            fleet_key: key.clone(),
+            host_addr,
+            pose_addr: None,
+            pace: Pace::RealTime,
+        },
     )
     .expect("sim");
     assert!(link.wait_for_robots(2, Duration::from_secs(5)).await);
     for id in [1, 2] {
-        link.command(id, HostMsg::WheelSpeed { left_rpm: 80.0, right_rpm: 80.0 }).await;
+        link.command(
+            id,
+            HostMsg::WheelSpeed {
+                left_rpm: 80.0,
+                right_rpm: 80.0,
+            },
+        )
+        .await;
     }
     sleep_ms(700).await;
     let moving = fleet.ground_truth();
-    assert!(moving.robots.iter().all(|r| r.v > 0.05), "driving before the crash");
+    assert!(
+        moving.robots.iter().all(|r| r.v > 0.05),
+        "driving before the crash"
+    );
     // Crash: the host vanishes without a word.
     link.abort();
     drop(link);
     sleep_ms(600).await;
     let g = fleet.ground_truth();
     for r in &g.robots {
-        assert!(r.v.abs() < 0.005, "robot {} still moving at {} m/s after the host died", r.id, r.v);
+        assert!(
+            r.v.abs() < 0.005,
+            "robot {} still moving at {} m/s after the host died",
+            r.id,
+            r.v
+        );
         let fw = r.firmware.as_ref().expect("firmware running");
-        assert_eq!(fw.target_rpm, [0.0, 0.0], "robot {} holds no stale target", r.id);
+        assert_eq!(
+            fw.target_rpm,
+            [0.0, 0.0],
+            "robot {} holds no stale target",
+            r.id
+        );
     }
     // A new host process on the same address: the robots relink under fresh nonces.
     cfg.bind = host_addr;
@@ -110,20 +158,38 @@ async fn host_crash_stops_robots_and_a_restarted_host_drives_them_under_new_sess
         }
     }
     let link2 = link2.expect("rebind the host address");
-    assert!(link2.wait_for_robots(2, Duration::from_secs(5)).await, "robots rejoin the new host");
+    assert!(
+        link2.wait_for_robots(2, Duration::from_secs(5)).await,
+        "robots rejoin the new host"
+    );
     for id in [1, 2] {
         assert_eq!(link2.status(id).expect("known").stats.sessions, 1);
     }
     // Nothing drives until the new host says so.
     sleep_ms(200).await;
-    assert!(fleet.ground_truth().robots.iter().all(|r| r.v.abs() < 0.005));
+    assert!(fleet
+        .ground_truth()
+        .robots
+        .iter()
+        .all(|r| r.v.abs() < 0.005));
     for _ in 0..20 {
         for id in [1, 2] {
-            link2.command(id, HostMsg::WheelSpeed { left_rpm: 80.0, right_rpm: 80.0 }).await;
+            link2
+                .command(
+                    id,
+                    HostMsg::WheelSpeed {
+                        left_rpm: 80.0,
+                        right_rpm: 80.0,
+                    },
+                )
+                .await;
         }
         sleep_ms(33).await;
     }
-    assert!(fleet.ground_truth().robots.iter().all(|r| r.v > 0.05), "driving under the new host");
+    assert!(
+        fleet.ground_truth().robots.iter().all(|r| r.v > 0.05),
+        "driving under the new host"
+    );
     link2.shutdown().await;
     fleet.stop();
 }
@@ -135,7 +201,11 @@ async fn robots_without_fresh_poses_are_stopped() {
     let h = SimHarness::start(scenario).await.expect("start");
     assert!(h.link.wait_for_robots(1, Duration::from_secs(5)).await);
     let plan = Trajectory {
-        path: Path::Line { start: [0.0, 0.0], heading: 0.0, length: 0.2 },
+        path: Path::Line {
+            start: [0.0, 0.0],
+            heading: 0.0,
+            length: 0.2,
+        },
         speed: 0.05,
         accel: 0.1,
     };
@@ -147,6 +217,10 @@ async fn robots_without_fresh_poses_are_stopped() {
     assert!(t.pose_stops > 30, "pose stops: {}", t.pose_stops);
     let r = h.fleet.ground_truth();
     let r = r.robot(1).expect("robot 1");
-    assert!(r.pose.x.abs() < 0.002 && r.v.abs() < 0.002, "robot moved without poses: {:?}", r.pose);
+    assert!(
+        r.pose.x.abs() < 0.002 && r.v.abs() < 0.002,
+        "robot moved without poses: {:?}",
+        r.pose
+    );
     h.shutdown().await;
 }
