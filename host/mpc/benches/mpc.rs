@@ -11,25 +11,9 @@ use puzzlebot_mpc::*;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-/// A warmed-up instance of one robot with `couplings` established pairs (0, 1 or 2).
-pub fn robot_instance(couplings: usize, cfg: &MpcConfig) -> ProblemInstance {
-    let (n, idx) = match couplings {
-        0 => (1, 0),
-        1 => (3, 0),
-        _ => (3, 1),
-    };
-    let (robots, pairs) = coupled_lines(n, 3, cfg.horizon, cfg.dt);
-    let mut mpc = DistributedMpc::with_threads(cfg.clone(), 1).expect("config");
-    for _ in 0..5 {
-        mpc.tick(&robots, &pairs).expect("tick");
-    }
-    let mut inst = mpc
-        .instances(&robots, &pairs)
-        .expect("instances")
-        .swap_remove(idx);
+fn robot_instance(couplings: usize, cfg: &MpcConfig) -> ProblemInstance {
+    let inst = puzzlebot_mpc::scenario::robot_instance(couplings, cfg).expect("scenario");
     assert_eq!(inst.couplings.len(), couplings);
-    // Fill the wings as the solve does.
-    RobotController::new().step(cfg, &mut inst, 0);
     inst
 }
 

@@ -1,6 +1,8 @@
 //! Reproducible benchmark and peer-comparison scenarios (lines of coupled robots).
 
+use crate::problem::ProblemInstance;
 use crate::types::*;
+use crate::{DistributedMpc, RobotController};
 use puzzlebot_params::{drive::Drive, RobotKind};
 
 /// Spacing of coupled robots along a line (m): body length + 4 mm gap, anchor head inside
@@ -67,4 +69,22 @@ pub fn coupled_lines(
         });
     }
     (robots, pairs)
+}
+
+/// A warmed-up problem of one robot with `couplings` (0, 1 or 2) established pairs, taken
+/// from [`coupled_lines`] after five ticks, with its butterfly wings selected.
+pub fn robot_instance(couplings: usize, cfg: &MpcConfig) -> Result<ProblemInstance, crate::MpcError> {
+    let (n, idx) = match couplings {
+        0 => (1, 0),
+        1 => (3, 0),
+        _ => (3, 1),
+    };
+    let (robots, pairs) = coupled_lines(n, 3, cfg.horizon, cfg.dt);
+    let mut mpc = DistributedMpc::with_threads(cfg.clone(), 1)?;
+    for _ in 0..5 {
+        mpc.tick(&robots, &pairs)?;
+    }
+    let mut inst = mpc.instances(&robots, &pairs)?.swap_remove(idx);
+    RobotController::new().step(cfg, &mut inst, robots[idx].id);
+    Ok(inst)
 }
