@@ -213,7 +213,10 @@ mod tests {
 
     #[test]
     fn accurate_across_range_and_both_directions() {
-        for &rpm in &[-450.0, -123.0, -20.0, 15.0, 37.0, 100.0, 250.0, 449.0] {
+        // 1200 RPM puts more edges into one period than the history holds (high-speed case).
+        for &rpm in &[
+            -1200.0, -450.0, -123.0, -20.0, 15.0, 37.0, 100.0, 250.0, 449.0, 1200.0,
+        ] {
             for &phase in &[0.0, 0.3, 0.77] {
                 let (e, _) = run_constant(rpm, phase, 0, 20);
                 let err = (f64::from(e) - rpm).abs();
