@@ -19,7 +19,10 @@ fn thread_cpu_ns() -> Option<u64> {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
     let robots: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(100);
     let secs: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
     let mut w = World::new(&Scenario::grid(robots, 1), &key()).expect("world");
@@ -50,10 +53,16 @@ fn main() {
         host_time += h0.elapsed();
     }
     let wall = start.elapsed().as_secs_f64();
-    let cpu = cpu0.zip(thread_cpu_ns()).map(|(a, b)| (b - a) as f64 * 1e-9);
+    let cpu = cpu0
+        .zip(thread_cpu_ns())
+        .map(|(a, b)| (b - a) as f64 * 1e-9);
     let sim_wall = wall - host_time.as_secs_f64();
     let t = w.ground_truth();
-    let driving = t.robots.iter().filter(|r| r.wheel_rpm[0].abs() > 30.0).count();
+    let driving = t
+        .robots
+        .iter()
+        .filter(|r| r.wheel_rpm[0].abs() > 30.0)
+        .count();
     println!(
         "sim_speed: {robots} robots, {secs} s simulated (plant 1 kHz, firmware 50 Hz, commands 30 Hz): \
          wall {wall:.3} s total = {:.1}x real time; simulator alone (without the in-process host's \

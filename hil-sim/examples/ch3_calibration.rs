@@ -10,7 +10,7 @@ fn main() {
     for kind in [RobotKind::NonPilot, RobotKind::Pilot] {
         let mut p = RobotParams::for_kind(kind);
         p.plant = Plant::chapter3(kind);
-        let c = calibrate(kind, &p, 17);
+        let c = calibrate(kind, &p, 23);
         let t = Drive::for_kind(kind);
         let a = c.corner_a();
         println!(
@@ -27,6 +27,15 @@ fn main() {
             t.butterfly_a,
             c.omega_max_at(f64::from(t.butterfly_a[0]))
         );
-        println!("  hull {:?}", c.hull.iter().map(|p| [(p[0] * 1000.0).round() / 1000.0, (p[1] * 1000.0).round() / 1000.0]).collect::<Vec<_>>());
+        println!(
+            "  hull {:?}",
+            c.hull
+                .iter()
+                .map(|p| [
+                    (p[0] * 1000.0).round() / 1000.0,
+                    (p[1] * 1000.0).round() / 1000.0
+                ])
+                .collect::<Vec<_>>()
+        );
     }
 }

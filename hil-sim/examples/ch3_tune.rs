@@ -10,7 +10,7 @@ use puzzlebot_sim::rng::Rng;
 fn loss(kind: RobotKind, p: &RobotParams) -> (f64, String) {
     let c = calibrate(kind, p, 46);
     let t = Drive::for_kind(kind);
-    let rel = |x: f64, y: f32| (x / f64::from(y) - 1.0);
+    let rel = |x: f64, y: f32| x / f64::from(y) - 1.0;
     let wa = c.omega_max_at(f64::from(t.butterfly_a[0]));
     let e = [
         rel(c.k_v, t.k_v),
@@ -19,7 +19,13 @@ fn loss(kind: RobotKind, p: &RobotParams) -> (f64, String) {
         rel(wa, -t.butterfly_a[1]),
     ];
     let l = e.iter().map(|x| x * x).sum();
-    (l, format!("errors k_v {:+.3} k_w {:+.3} B {:+.3} |w|(a_x) {:+.3}", e[0], e[1], e[2], e[3]))
+    (
+        l,
+        format!(
+            "errors k_v {:+.3} k_w {:+.3} B {:+.3} |w|(a_x) {:+.3}",
+            e[0], e[1], e[2], e[3]
+        ),
+    )
 }
 
 fn main() {

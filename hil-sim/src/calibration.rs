@@ -78,6 +78,7 @@ impl Calibration {
 pub fn measure(model: &DriveModel, m: [i32; 2], settle_s: f64, measure_s: f64) -> (f64, f64) {
     let bridge = |p: i32| {
         let d = (p.clamp(-PWM_MAX, PWM_MAX) * 1000 / PWM_MAX) as i16;
+        // PWM on one input, the other low (fast decay), as an ATmega `analogWrite` does.
         if d >= 0 {
             Bridge {
                 in1: d as u16,
@@ -158,7 +159,12 @@ pub fn calibrate(kind: RobotKind, params: &RobotParams, step_pwm: i32) -> Calibr
     pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     let mut hull: Vec<V2> = Vec::new();
     for p in pts {
-        while hull.len() >= 2 && cross(sub(hull[hull.len() - 1], hull[hull.len() - 2]), sub(p, hull[hull.len() - 2])) >= 0.0 {
+        while hull.len() >= 2
+            && cross(
+                sub(hull[hull.len() - 1], hull[hull.len() - 2]),
+                sub(p, hull[hull.len() - 2]),
+            ) >= 0.0
+        {
             hull.pop();
         }
         hull.push(p);

@@ -300,6 +300,7 @@ fn solve5(a: [[f64; 5]; 5], b: [f64; 5]) -> [f64; 5] {
 }
 
 /// Advance the drive by `dt` seconds with the bridge commands `cmd` (left, right).
+#[allow(clippy::needless_range_loop)] // index-parallel arrays of the 5 × 5 system
 pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) {
     let md = model;
     let vbat = st.battery_v;
@@ -484,9 +485,15 @@ mod tests {
         let (m, mut s) = model(kind);
         let b = |d: i16| {
             if d >= 0 {
-                Bridge { in1: 1000, in2: 1000 - d as u16 }
+                Bridge {
+                    in1: 1000,
+                    in2: 1000 - d as u16,
+                }
             } else {
-                Bridge { in1: 1000 - (-d) as u16, in2: 1000 }
+                Bridge {
+                    in1: 1000 - (-d) as u16,
+                    in2: 1000,
+                }
             }
         };
         for _ in 0..(secs * 1000.0) as usize {
@@ -543,9 +550,18 @@ mod tests {
         let (_, np) = run(RobotKind::NonPilot, [-600, 600], 1.0);
         let (_, pi) = run(RobotKind::Pilot, [-600, 600], 1.0);
         assert!(np.omega > 5.0, "non-pilot spins at {}", np.omega);
-        assert!(pi.omega.abs() < 0.3 * np.omega, "pilot spins at {}", pi.omega);
+        assert!(
+            pi.omega.abs() < 0.3 * np.omega,
+            "pilot spins at {}",
+            pi.omega
+        );
         // The pilot turns once it rolls forward.
         let (_, pf) = run(RobotKind::Pilot, [400, 900], 1.5);
-        assert!(pf.omega > 2.0 * pi.omega.abs(), "{} vs {}", pf.omega, pi.omega);
+        assert!(
+            pf.omega > 2.0 * pi.omega.abs(),
+            "{} vs {}",
+            pf.omega,
+            pi.omega
+        );
     }
 }

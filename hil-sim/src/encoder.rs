@@ -83,11 +83,19 @@ impl QuadEncoder {
                 (self.count - 1, self.count)
             };
             let ang = boundary as f64 * TAU / self.edges_per_rev;
-            let frac = if da.abs() > 0.0 { ((ang - a0) / da).clamp(0.0, 1.0) } else { 1.0 };
+            let frac = if da.abs() > 0.0 {
+                ((ang - a0) / da).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
             let t = t0_us + (frac * span).round() as u64;
             self.count = next;
             let (a, b) = levels(next);
-            emit(EdgeEvent { a, b, t_us: t.min(t1_us) });
+            emit(EdgeEvent {
+                a,
+                b,
+                t_us: t.min(t1_us),
+            });
         }
         self.count = target;
     }

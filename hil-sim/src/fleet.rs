@@ -98,7 +98,9 @@ pub struct SimFleet {
 
 impl std::fmt::Debug for SimFleet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SimFleet").field("robots", &self.addrs).finish()
+        f.debug_struct("SimFleet")
+            .field("robots", &self.addrs)
+            .finish()
     }
 }
 

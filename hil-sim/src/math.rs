@@ -64,23 +64,38 @@ impl Frame {
     /// The frame of `p`.
     pub fn of(p: &Pose) -> Frame {
         let (s, c) = p.yaw.sin_cos();
-        Frame { x: p.x, y: p.y, s, c }
+        Frame {
+            x: p.x,
+            y: p.y,
+            s,
+            c,
+        }
     }
 
     /// Same rotation, position of `p` (when only the position changed).
     pub fn moved(self, p: &Pose) -> Frame {
-        Frame { x: p.x, y: p.y, ..self }
+        Frame {
+            x: p.x,
+            y: p.y,
+            ..self
+        }
     }
 
     /// A body-frame point in the world frame.
     pub fn apply(&self, p: V2) -> V2 {
-        [self.x + self.c * p[0] - self.s * p[1], self.y + self.s * p[0] + self.c * p[1]]
+        [
+            self.x + self.c * p[0] - self.s * p[1],
+            self.y + self.s * p[0] + self.c * p[1],
+        ]
     }
 
     /// A world point in this body frame.
     pub fn inverse_apply(&self, p: V2) -> V2 {
         let d = [p[0] - self.x, p[1] - self.y];
-        [self.c * d[0] + self.s * d[1], -self.s * d[0] + self.c * d[1]]
+        [
+            self.c * d[0] + self.s * d[1],
+            -self.s * d[0] + self.c * d[1],
+        ]
     }
 
     /// A body-frame direction in the world frame.
@@ -195,6 +210,11 @@ mod tests {
         assert!(in_convex_hull(&sq, [0.5, 0.2]));
         assert!(!in_convex_hull(&sq, [1.5, 0.2]));
         assert!(!in_convex_hull(&sq[..2], [0.5, 0.0]));
-        assert!((wrap(3.5 * core::f64::consts::PI) - core::f64::consts::PI * 1.5 + 2.0 * core::f64::consts::PI).abs() < 1e-9);
+        assert!(
+            (wrap(3.5 * core::f64::consts::PI) - core::f64::consts::PI * 1.5
+                + 2.0 * core::f64::consts::PI)
+                .abs()
+                < 1e-9
+        );
     }
 }

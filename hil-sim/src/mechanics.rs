@@ -166,7 +166,10 @@ impl Shape {
     pub fn new(g: &Geometry) -> Shape {
         let half = [f64::from(g.length) * 0.5, f64::from(g.width) * 0.5];
         let head = [f64::from(g.anchor_head[0]), f64::from(g.anchor_head[1])];
-        let opening = [f64::from(g.anchor_opening[0]), f64::from(g.anchor_opening[1])];
+        let opening = [
+            f64::from(g.anchor_opening[0]),
+            f64::from(g.anchor_opening[1]),
+        ];
         let knob = [f64::from(g.knob_left[0]), f64::from(g.knob_left[1])];
         let depth = (-head[0] - half[0]).max(0.0);
         Shape {
@@ -305,7 +308,8 @@ impl Mechanics {
     /// Start with robots `a` and `b` already coupled (scenario setup). The poses should
     /// already be in the coupled relation; the constraints pull them into it otherwise.
     pub fn attach(&mut self, kind: LinkKind, a: usize, b: usize) {
-        self.links.retain(|l| !(l.a == a && l.b == b && l.kind == kind));
+        self.links
+            .retain(|l| !(l.a == a && l.b == b && l.kind == kind));
         self.links.push(Link {
             kind,
             a,
@@ -423,8 +427,7 @@ impl Mechanics {
                 }
                 let (fa, fb) = (ba.frame(), bb.frame());
                 // Anchor of a into the opening of b.
-                if !self.anchor_busy(a) && !self.opening_busy(b) && phi.abs() <= ANCHOR_ENTRY_YAW
-                {
+                if !self.anchor_busy(a) && !self.opening_busy(b) && phi.abs() <= ANCHOR_ENTRY_YAW {
                     let h = fb.inverse_apply(fa.apply(sh.head));
                     let face = sh.opening[0];
                     if h[0] <= face + 1e-4
@@ -484,8 +487,14 @@ impl Mechanics {
             // Body against body, except inside an anchor coupling (the pin governs).
             let skip_bodies = matches!(
                 link,
-                Some(Link { kind: LinkKind::Anchor, state: LinkState::Coupled, .. })
-                    | Some(Link { kind: LinkKind::Knob, .. })
+                Some(Link {
+                    kind: LinkKind::Anchor,
+                    state: LinkState::Coupled,
+                    ..
+                }) | Some(Link {
+                    kind: LinkKind::Knob,
+                    ..
+                })
             );
             let (fi, fj) = (bi.frame(), bj.frame());
             if !skip_bodies {
@@ -496,7 +505,11 @@ impl Mechanics {
             }
             // Anchor heads against the other body unless inserting / coupled / releasing.
             for swap in [false, true] {
-                let (ba, bb) = if swap { (&mut *bj, &mut *bi) } else { (&mut *bi, &mut *bj) };
+                let (ba, bb) = if swap {
+                    (&mut *bj, &mut *bi)
+                } else {
+                    (&mut *bi, &mut *bj)
+                };
                 let (ia, ib) = if swap { (j, i) } else { (i, j) };
                 // Contacts move bodies without turning them: only positions changed.
                 let (fa, fb) = if swap {

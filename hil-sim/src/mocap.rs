@@ -2,7 +2,9 @@
 //! dropouts, as frames of the documented UDP pose stream (`puzzlebot_protocol::pose`).
 
 use crate::rng::Rng;
-use puzzlebot_protocol::pose::{encode_poses, BodyPose, MAX_BODIES_PER_DATAGRAM, MAX_POSE_DATAGRAM};
+use puzzlebot_protocol::pose::{
+    encode_poses, BodyPose, MAX_BODIES_PER_DATAGRAM, MAX_POSE_DATAGRAM,
+};
 use serde::{Deserialize, Serialize};
 
 /// Motion-capture settings.
@@ -35,7 +37,10 @@ impl MocapConfig {
     /// Check ranges; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.rate_hz.is_finite() && (1.0..=1000.0).contains(&self.rate_hz)) {
-            return Err(format!("rate_hz: must be within 1..=1000, got {}", self.rate_hz));
+            return Err(format!(
+                "rate_hz: must be within 1..=1000, got {}",
+                self.rate_hz
+            ));
         }
         for (n, v) in [
             ("position_noise_m", self.position_noise_m),
@@ -46,7 +51,10 @@ impl MocapConfig {
             }
         }
         if !(self.dropout.is_finite() && (0.0..=1.0).contains(&self.dropout)) {
-            return Err(format!("dropout: must be within 0..=1, got {}", self.dropout));
+            return Err(format!(
+                "dropout: must be within 0..=1, got {}",
+                self.dropout
+            ));
         }
         Ok(())
     }
@@ -121,7 +129,10 @@ impl Mocap {
                 _ => self.last.iter().find(|b| b.robot_id == id).copied(),
             };
             let b = match (lost, prev) {
-                (true, Some(p)) => BodyPose { tracked: false, ..p },
+                (true, Some(p)) => BodyPose {
+                    tracked: false,
+                    ..p
+                },
                 (true, None) => BodyPose {
                     robot_id: id,
                     x: 0.0,
@@ -165,7 +176,9 @@ mod tests {
             ..MocapConfig::default()
         };
         let mut m = Mocap::new(cfg, Rng::new(1, 2));
-        let truth: Vec<_> = (0..100u16).map(|i| (i, f64::from(i), 1.0, 0.0, 0.5)).collect();
+        let truth: Vec<_> = (0..100u16)
+            .map(|i| (i, f64::from(i), 1.0, 0.0, 0.5))
+            .collect();
         let f = m.capture(10_000, &truth);
         let dg = f.datagrams();
         assert_eq!(dg.len(), 2);

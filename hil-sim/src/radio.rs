@@ -35,7 +35,10 @@ impl Impairments {
 
     /// Check ranges; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [("latency_ms", self.latency_ms), ("jitter_ms", self.jitter_ms)] {
+        for (name, v) in [
+            ("latency_ms", self.latency_ms),
+            ("jitter_ms", self.jitter_ms),
+        ] {
             if !(v.is_finite() && (0.0..=10_000.0).contains(&v)) {
                 return Err(format!("{name}: must be within 0..=10000 ms, got {v}"));
             }
@@ -46,7 +49,9 @@ impl Impairments {
             ("reorder", self.reorder),
         ] {
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
-                return Err(format!("{name}: must be a probability within 0..=1, got {v}"));
+                return Err(format!(
+                    "{name}: must be a probability within 0..=1, got {v}"
+                ));
             }
         }
         Ok(())
@@ -192,6 +197,9 @@ mod tests {
         assert_eq!(clean.len(), 200);
         assert!(clean.iter().all(|(t, p)| *t == u64::from(*p)));
         assert!(imp.validate().is_ok());
-        assert!(Impairments { loss: 1.5, ..imp }.validate().unwrap_err().contains("loss"));
+        assert!(Impairments { loss: 1.5, ..imp }
+            .validate()
+            .unwrap_err()
+            .contains("loss"));
     }
 }

@@ -170,7 +170,9 @@ impl Scenario {
             .validate()
             .map_err(|e| format!("impairments.{e}"))?;
         self.mocap.validate().map_err(|e| format!("mocap.{e}"))?;
-        self.terrain.validate().map_err(|e| format!("terrain.{e}"))?;
+        self.terrain
+            .validate()
+            .map_err(|e| format!("terrain.{e}"))?;
         for (i, c) in self.couplings.iter().enumerate() {
             for (f, id) in [("a", c.a), ("b", c.b)] {
                 if !ids.contains(&id) {
@@ -181,7 +183,10 @@ impl Scenario {
                 return Err(format!("couplings[{i}]: a robot cannot couple to itself"));
             }
         }
-        for (name, p) in [("pilot", &self.params.pilot), ("non_pilot", &self.params.non_pilot)] {
+        for (name, p) in [
+            ("pilot", &self.params.pilot),
+            ("non_pilot", &self.params.non_pilot),
+        ] {
             puzzlebot_firmware_core::check_config(&p.firmware)
                 .map_err(|e| format!("params.{name}.{e}"))?;
             let g = &p.geometry;
@@ -250,13 +255,19 @@ b = 1
         assert_eq!(s.robots[1].impairments.map(|i| i.loss), Some(0.1));
         assert_eq!(s.terrain.platforms.len(), 1);
         let bad = text.replace("latency_ms = 2.0", "latency_ms = \"slow\"");
-        let e = Scenario::from_toml(Path::new("s.toml"), &bad).unwrap_err().to_string();
+        let e = Scenario::from_toml(Path::new("s.toml"), &bad)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("s.toml:4:"), "{e}");
         let dup = text.replace("id = 2", "id = 1");
-        let e = Scenario::from_toml(Path::new("s.toml"), &dup).unwrap_err().to_string();
+        let e = Scenario::from_toml(Path::new("s.toml"), &dup)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("id 1 appears twice"), "{e}");
         let neg = text.replace("loss = 0.1", "loss = 2.0");
-        let e = Scenario::from_toml(Path::new("s.toml"), &neg).unwrap_err().to_string();
+        let e = Scenario::from_toml(Path::new("s.toml"), &neg)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("robots[1].impairments.loss"), "{e}");
     }
 }

@@ -303,7 +303,10 @@ impl World {
                 trig_age: 0,
             };
             if !spec.offline {
-                boot(&mut r, key, 0).map_err(|reason| WorldError::Firmware { id: spec.id, reason })?;
+                boot(&mut r, key, 0).map_err(|reason| WorldError::Firmware {
+                    id: spec.id,
+                    reason,
+                })?;
             }
             robots.push(r);
         }
@@ -366,6 +369,7 @@ impl World {
     }
 
     /// Advance one physics step.
+    #[allow(clippy::needless_range_loop)] // per-wheel arrays indexed in parallel
     pub fn step(&mut self) {
         let dt = self.step_us as f64 * 1e-6;
         let t0 = self.time_us;
@@ -656,7 +660,10 @@ impl World {
     ) -> Option<Result<(), puzzlebot_protocol::Rejection>> {
         let now = self.time_us;
         let i = self.index(id)?;
-        self.robots[i].fw.as_mut().map(|fw| fw.on_datagram(frame, now))
+        self.robots[i]
+            .fw
+            .as_mut()
+            .map(|fw| fw.on_datagram(frame, now))
     }
 
     /// Datagrams robots sent that have arrived at the host side, in arrival order.
@@ -689,13 +696,11 @@ impl World {
                     kind: EventKind::Offline { id },
                 });
             }
-            (true, false) => {
-                if boot(r, &key, now).is_ok() {
-                    self.events.push(SimEvent {
-                        t_us: now,
-                        kind: EventKind::Booted { id, boot: r.boots },
-                    });
-                }
+            (true, false) if boot(r, &key, now).is_ok() => {
+                self.events.push(SimEvent {
+                    t_us: now,
+                    kind: EventKind::Booted { id, boot: r.boots },
+                });
             }
             _ => {}
         }
@@ -794,9 +799,8 @@ impl World {
 
     /// True when robot `id`'s firmware is in a driving mode (speed or raw duty).
     pub fn is_driving(&self, id: RobotId) -> bool {
-        self.firmware(id).is_some_and(|f| {
-            matches!(f.status().mode, DriveMode::Speed | DriveMode::RawDuty(_))
-        })
+        self.firmware(id)
+            .is_some_and(|f| matches!(f.status().mode, DriveMode::Speed | DriveMode::RawDuty(_)))
     }
 }
 

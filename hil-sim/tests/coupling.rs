@@ -64,10 +64,12 @@ fn aligned_robots_couple_when_driven_together() {
     let w = approach(0.002);
     let t = w.ground_truth();
     assert!(t.are_coupled(2, 1), "links {:?}", w.links());
-    assert!(t
-        .events
-        .iter()
-        .any(|e| e.kind == EventKind::Coupled { kind: LinkKind::Anchor, a: 2, b: 1 }));
+    assert!(t.events.iter().any(|e| e.kind
+        == EventKind::Coupled {
+            kind: LinkKind::Anchor,
+            a: 2,
+            b: 1
+        }));
     // Anchor fully in: centres one body length apart (within the 5 mm travel), in line.
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
     let d = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt();
@@ -101,14 +103,24 @@ fn coupled_pair_holds_a_straight_pull_but_separates_within_2_s_of_wiggling() {
         })
     });
     let t = w.ground_truth();
-    assert!(t.are_coupled(2, 1), "a straight pull must not release the anchor");
+    assert!(
+        t.are_coupled(2, 1),
+        "a straight pull must not release the anchor"
+    );
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
     let sep = ((p2.x - p1.x).powi(2) + (p2.y - p1.y).powi(2)).sqrt();
-    assert!(sep < 0.05 + 0.0055, "separation {sep} within the 5 mm travel");
+    assert!(
+        sep < 0.05 + 0.0055,
+        "separation {sep} within the 5 mm travel"
+    );
     // Push back together, then the anchor robot wiggles (THESIS 5.7): v_bias forward,
     // ω = ω_max·sgn(sin(B t)), period 1 s; robot 1 stays put.
     drive(&mut w, &mut host, 0.5, |_, id| {
-        Some(if id == 1 { speed(60.0, 60.0) } else { speed(0.0, 0.0) })
+        Some(if id == 1 {
+            speed(60.0, 60.0)
+        } else {
+            speed(0.0, 0.0)
+        })
     });
     let start = w.time_us();
     let r = 0.017;
@@ -121,7 +133,10 @@ fn coupled_pair_holds_a_straight_pull_but_separates_within_2_s_of_wiggling() {
         }
         let (v_bias, w_max) = (0.08, 6.0);
         let om = w_max * (std::f64::consts::TAU * (t - t0)).sin().signum();
-        Some(speed(rpm(v_bias - om * half_base), rpm(v_bias + om * half_base)))
+        Some(speed(
+            rpm(v_bias - om * half_base),
+            rpm(v_bias + om * half_base),
+        ))
     });
     let released = w.events().iter().find(|e| {
         e.kind
@@ -148,5 +163,8 @@ fn coupled_groups_move_together() {
     assert!(t.are_coupled(2, 1));
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
     assert!(p1.x > 0.3, "the pair drove: {p1:?}");
-    assert!((p2.x - p1.x - 0.05).abs() < 0.006 && (p2.y - p1.y).abs() < 0.003, "{p1:?} {p2:?}");
+    assert!(
+        (p2.x - p1.x - 0.05).abs() < 0.006 && (p2.y - p1.y).abs() < 0.003,
+        "{p1:?} {p2:?}"
+    );
 }

@@ -15,7 +15,11 @@ fn one_robot() -> (World, MiniHost) {
 fn counting_speed_shows_thesis_quantisation_and_timestamp_estimator_is_10x_finer() {
     let (mut w, mut host) = one_robot();
     connect(&mut w, &mut host, 2.0);
-    let epr = Scenario::default().params.non_pilot.firmware.encoder_edges_per_rev;
+    let epr = Scenario::default()
+        .params
+        .non_pilot
+        .firmware
+        .encoder_edges_per_rev;
     let quantum = 60.0e6 / (f64::from(epr) * 20_000.0); // RPM per edge per 20 ms window
     let (mut err_count, mut err_est, mut n) = (0.0, 0.0, 0.0);
     let mut levels = std::collections::BTreeSet::new();
@@ -68,7 +72,11 @@ fn a_robot_whose_commands_stop_is_stopped_by_its_own_failsafe() {
     connect(&mut w, &mut host, 2.0);
     drive(&mut w, &mut host, 1.0, |_, _| Some(speed(200.0, 200.0)));
     let t = w.ground_truth();
-    assert!(t.robots[0].wheel_rpm[0] > 150.0, "{:?}", t.robots[0].wheel_rpm);
+    assert!(
+        t.robots[0].wheel_rpm[0] > 150.0,
+        "{:?}",
+        t.robots[0].wheel_rpm
+    );
     assert!(w.is_driving(1));
     // Commands stop; the host keeps listening.
     drive(&mut w, &mut host, 0.15, |_, _| None);
@@ -77,9 +85,18 @@ fn a_robot_whose_commands_stop_is_stopped_by_its_own_failsafe() {
     let t = w.ground_truth();
     let r = &t.robots[0];
     let fw = r.firmware.expect("online");
-    assert!(fw.flags & flags::FAILSAFE != 0, "failsafe flag: {:#x}", fw.flags);
+    assert!(
+        fw.flags & flags::FAILSAFE != 0,
+        "failsafe flag: {:#x}",
+        fw.flags
+    );
     assert_eq!(r.duty, [0, 0]);
-    assert!(r.wheel_rpm[0].abs() < 1.0 && r.v.abs() < 0.005, "{:?} {}", r.wheel_rpm, r.v);
+    assert!(
+        r.wheel_rpm[0].abs() < 1.0 && r.v.abs() < 0.005,
+        "{:?} {}",
+        r.wheel_rpm,
+        r.v
+    );
 }
 
 #[test]
@@ -105,7 +122,10 @@ fn forged_and_replayed_datagrams_are_rejected_by_the_firmware() {
     // Through the radio the same happens (the firmware counts it).
     w.send_to_robot(1, &good);
     w.step();
-    assert_eq!(w.ground_truth().robots[0].rejected[Rejection::Replay as usize], 2);
+    assert_eq!(
+        w.ground_truth().robots[0].rejected[Rejection::Replay as usize],
+        2
+    );
 }
 
 fn run_script(seed: u64) -> String {
@@ -140,7 +160,10 @@ fn the_same_seed_gives_bit_identical_runs() {
     let b = run_script(11);
     assert_eq!(a, b);
     let c = run_script(12);
-    assert_ne!(a, c, "a different seed must change something (nonces, loss, noise)");
+    assert_ne!(
+        a, c,
+        "a different seed must change something (nonces, loss, noise)"
+    );
 }
 
 #[test]

@@ -3,9 +3,7 @@
 
 use puzzlebot_protocol::pose::decode_poses;
 use puzzlebot_protocol::session::HostReceived;
-use puzzlebot_protocol::{
-    FleetKey, HostMsg, HostSession, Rejection, MAX_DATAGRAM,
-};
+use puzzlebot_protocol::{FleetKey, HostMsg, HostSession, Rejection, MAX_DATAGRAM};
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 use std::collections::BTreeMap;
 use std::net::{SocketAddr, UdpSocket};
@@ -66,7 +64,8 @@ impl Host {
 #[test]
 fn fleet_speaks_the_real_protocol_over_loopback() {
     let sock = UdpSocket::bind("127.0.0.1:0").expect("bind");
-    sock.set_read_timeout(Some(Duration::from_millis(5))).expect("timeout");
+    sock.set_read_timeout(Some(Duration::from_millis(5)))
+        .expect("timeout");
     let pose_sock = UdpSocket::bind("127.0.0.1:0").expect("bind");
     pose_sock
         .set_read_timeout(Some(Duration::from_millis(200)))
@@ -95,11 +94,21 @@ fn fleet_speaks_the_real_protocol_over_loopback() {
     // Drive robot 1 (backwards, away from robot 2) for 0.6 s at 30 Hz.
     let mut last = None;
     for _ in 0..18 {
-        last = host.command(1, &HostMsg::WheelSpeed { left_rpm: -150.0, right_rpm: -150.0 });
+        last = host.command(
+            1,
+            &HostMsg::WheelSpeed {
+                left_rpm: -150.0,
+                right_rpm: -150.0,
+            },
+        );
         host.pump(33);
     }
     let t = fleet.ground_truth();
-    assert!(t.robot(1).unwrap().wheel_rpm[0] < -100.0, "{:?}", t.robot(1));
+    assert!(
+        t.robot(1).unwrap().wheel_rpm[0] < -100.0,
+        "{:?}",
+        t.robot(1)
+    );
     assert!(t.robot(2).unwrap().wheel_rpm[0].abs() < 1.0);
     // Replay the last command and send a forged one to robot 1's socket.
     let last = last.expect("sent");
@@ -110,8 +119,18 @@ fn fleet_speaks_the_real_protocol_over_loopback() {
     host.sock.send_to(&forged, robot1).expect("send");
     host.pump(100);
     let r = fleet.ground_truth().robot(1).copied().expect("robot 1");
-    assert_eq!(r.rejected[Rejection::Replay as usize], 1, "{:?}", r.rejected);
-    assert_eq!(r.rejected[Rejection::BadTag as usize], 1, "{:?}", r.rejected);
+    assert_eq!(
+        r.rejected[Rejection::Replay as usize],
+        1,
+        "{:?}",
+        r.rejected
+    );
+    assert_eq!(
+        r.rejected[Rejection::BadTag as usize],
+        1,
+        "{:?}",
+        r.rejected
+    );
     // The pose stream arrives.
     let mut buf = [0u8; 2048];
     let (n, _) = pose_sock.recv_from(&mut buf).expect("pose datagram");

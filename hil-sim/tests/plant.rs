@@ -35,7 +35,11 @@ fn motor_step_response_matches_first_order_solution_within_2_percent() {
         let analytic = w_ss * (1.0 - (-t / tau).exp());
         worst = worst.max((s.wheel[0] - analytic).abs() / w_ss);
     }
-    println!("ω_ss = {w_ss:.3} rad/s, τ = {:.1} ms, worst deviation {:.2} %", tau * 1e3, worst * 100.0);
+    println!(
+        "ω_ss = {w_ss:.3} rad/s, τ = {:.1} ms, worst deviation {:.2} %",
+        tau * 1e3,
+        worst * 100.0
+    );
     assert!(worst < 0.02, "worst deviation {:.2} %", worst * 100.0);
     assert!((s.wheel[0] - w_ss).abs() / w_ss < 0.005);
 }

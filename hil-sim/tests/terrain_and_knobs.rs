@@ -83,12 +83,14 @@ fn steps_block_going_up_and_drop_going_down() {
     let t = w.ground_truth();
     let (r1, r2) = (t.robot(1).unwrap(), t.robot(2).unwrap());
     assert!(r1.pose.x < 0.001 && r1.z == 0.0, "{r1:?}");
-    assert!(t.events.iter().any(|e| e.kind == EventKind::Blocked { id: 1 }));
-    assert!(r2.pose.x < -0.05 && r2.z == 0.0, "{r2:?}");
     assert!(t
         .events
         .iter()
-        .any(|e| matches!(e.kind, EventKind::Dropped { id: 2, height } if (height - 0.02).abs() < 1e-9)));
+        .any(|e| e.kind == EventKind::Blocked { id: 1 }));
+    assert!(r2.pose.x < -0.05 && r2.z == 0.0, "{r2:?}");
+    assert!(t.events.iter().any(
+        |e| matches!(e.kind, EventKind::Dropped { id: 2, height } if (height - 0.02).abs() < 1e-9)
+    ));
 }
 
 fn knob_pair(dx: f64) -> World {
@@ -104,23 +106,35 @@ fn knob_pair(dx: f64) -> World {
 
 #[test]
 fn side_knobs_need_sub_millimetre_alignment_and_are_rigid_once_in() {
-    assert!(!knob_pair(0.002).ground_truth().are_coupled(1, 2), "2 mm off must not couple");
+    assert!(
+        !knob_pair(0.002).ground_truth().are_coupled(1, 2),
+        "2 mm off must not couple"
+    );
     let mut w = knob_pair(0.0005);
     assert!(w.ground_truth().are_coupled(1, 2), "{:?}", w.links());
-    assert!(w
-        .events()
-        .iter()
-        .any(|e| e.kind == EventKind::Coupled { kind: LinkKind::Knob, a: 1, b: 2 }));
+    assert!(w.events().iter().any(|e| e.kind
+        == EventKind::Coupled {
+            kind: LinkKind::Knob,
+            a: 1,
+            b: 2
+        }));
     // Robot 1 drives, robot 2 brakes: the pair moves as one rigid body.
     let mut host = MiniHost::new(key());
     connect(&mut w, &mut host, 2.0);
     drive(&mut w, &mut host, 2.0, |_, id| {
-        Some(if id == 1 { speed(150.0, 150.0) } else { HostMsg::Stop })
+        Some(if id == 1 {
+            speed(150.0, 150.0)
+        } else {
+            HostMsg::Stop
+        })
     });
     let t = w.ground_truth();
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
     let rel = p1.inverse_apply([p2.x, p2.y]);
     assert!(p1.x.hypot(p1.y) > 0.05, "the pair moved: {p1:?}");
-    assert!((rel[0] - 0.0).abs() < 1e-3 && (rel[1] - 0.05).abs() < 1e-3, "{rel:?}");
+    assert!(
+        (rel[0] - 0.0).abs() < 1e-3 && (rel[1] - 0.05).abs() < 1e-3,
+        "{rel:?}"
+    );
     assert!((p1.yaw - p2.yaw).abs() < 1e-3);
 }

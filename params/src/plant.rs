@@ -66,8 +66,9 @@ pub struct Plant {
     pub slip_angle_saturation: f32,
     /// Longitudinal slip speed (m/s) below which traction grows linearly with slip.
     pub traction_slip_speed: f32,
-    /// Distance of the wheel axles from the body centre along x for four-wheeled pilots (m);
-    /// two-wheeled robots have their axle on the centre (0).
+    /// Distance of the wheel axles from the body centre along x (m): ± for the two axles of
+    /// a four-wheeled pilot; ahead of the centre for the single axle of a two-wheeled robot
+    /// (0 for the chapter-5 non-pilot, whose axle is on the centre).
     pub wheel_axle_offset: f32,
     /// Fraction of the weight on the driven wheels (the rest on the casters; pilots: 1).
     pub wheel_load_fraction: f32,
@@ -117,8 +118,10 @@ impl Plant {
     }
 
     /// The chapter-3 (v2) robots: 3 V CR2 battery, no encoders, commanded by raw PWM
-    /// (THESIS 3.4). Tuned so that the open-loop calibration of THESIS 3.5.1 (k_v, k_ω and
-    /// the butterfly points A, B; see `drive::Drive`) is reproduced by the simulator.
+    /// (THESIS 3.4). Gear ratio, friction and tyre numbers were chosen by a random search
+    /// (`hil-sim` example `ch3_tune`) against the open-loop calibration of THESIS 3.5.1
+    /// (k_v, k_ω, butterfly points A, B; `drive::Drive`); the remaining errors are printed
+    /// by the example `ch3_calibration` (the pilot is close, the non-pilot is not yet).
     pub fn chapter3(kind: RobotKind) -> Self {
         let mut p = Plant::for_kind(kind);
         p.battery_voltage = 3.0;
@@ -127,22 +130,22 @@ impl Plant {
         match kind {
             // Fast four-wheeled pilot (B = 0.47 m/s) that barely turns in place.
             RobotKind::Pilot => {
-                p.gear_ratio = 40.8;
+                p.gear_ratio = 41.96;
                 p.wheel_lateral_friction = 2.0;
-                p.slip_angle_saturation = 0.031;
-                p.wheel_axle_offset = 0.0063;
-                p.friction_static = 4.22e-3;
-                p.friction_coulomb = 2.78e-3;
+                p.slip_angle_saturation = 0.0287;
+                p.wheel_axle_offset = 0.00616;
+                p.friction_static = 4.88e-3;
+                p.friction_coulomb = 3.22e-3;
             }
             // Slow non-pilot (B = 0.11 m/s) whose ball casters drag when it turns.
             RobotKind::NonPilot => {
-                p.gear_ratio = 261.0;
-                p.wheel_axle_offset = 0.0011;
-                p.wheel_lateral_friction = 0.237;
-                p.slip_angle_saturation = 0.093;
-                p.friction_static = 1.95e-3;
-                p.friction_coulomb = 1.29e-3;
-                p.caster_friction = 0.076;
+                p.gear_ratio = 250.6;
+                p.wheel_axle_offset = 0.00109;
+                p.wheel_lateral_friction = 0.361;
+                p.slip_angle_saturation = 0.0497;
+                p.friction_static = 2.10e-3;
+                p.friction_coulomb = 1.39e-3;
+                p.caster_friction = 0.040;
             }
         }
         p
@@ -151,7 +154,8 @@ impl Plant {
     /// Wheel-shaft static friction as a fraction of the stall torque at `volts`:
     /// the duty dead-band M_min (THESIS 3.4).
     pub fn dead_band_duty(&self, volts: f32) -> f32 {
-        let stall = volts / self.motor_resistance * self.motor_k * self.gear_ratio * self.gear_efficiency;
+        let stall =
+            volts / self.motor_resistance * self.motor_k * self.gear_ratio * self.gear_efficiency;
         self.friction_static / stall
     }
 }

@@ -76,12 +76,14 @@ fn run(args: Args) -> Result<(), String> {
     }
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
-            return Err(format!("--duration: must be a positive number of seconds, got {d}"));
+            return Err(format!(
+                "--duration: must be a positive number of seconds, got {d}"
+            ));
         }
     }
-    let pose_addr = args
-        .pose
-        .or(args.default_pose.then(|| SocketAddr::from(([127, 0, 0, 1], DEFAULT_POSE_PORT))));
+    let pose_addr = args.pose.or(args
+        .default_pose
+        .then(|| SocketAddr::from(([127, 0, 0, 1], DEFAULT_POSE_PORT))));
     let pace = if args.realtime {
         Pace::RealTime
     } else {

@@ -45,12 +45,15 @@ impl MiniHost {
         self.nonce += 1;
         let n = self.nonce;
         let mut out = [0u8; MAX_DATAGRAM];
-        match s.receive(frame, || {
-            let mut b = [0u8; 16];
-            b[..8].copy_from_slice(&n.to_le_bytes());
-            b
-        }, &mut out)
-        {
+        match s.receive(
+            frame,
+            || {
+                let mut b = [0u8; 16];
+                b[..8].copy_from_slice(&n.to_le_bytes());
+                b
+            },
+            &mut out,
+        ) {
             Ok(HostReceived::Announce { welcome_len, .. }) => Some(out[..welcome_len].to_vec()),
             Ok(HostReceived::Message(_, RobotMsg::Telemetry(t))) => {
                 self.telemetry.insert(id, t);
@@ -62,7 +65,9 @@ impl MiniHost {
 
     /// True once robot `id` proved its session.
     pub fn established(&self, id: RobotId) -> bool {
-        self.sessions.get(&id).is_some_and(HostSession::is_established)
+        self.sessions
+            .get(&id)
+            .is_some_and(HostSession::is_established)
     }
 
     /// Seal `msg` for robot `id` (None before the first announce).
