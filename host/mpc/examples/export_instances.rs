@@ -25,7 +25,10 @@ struct Entry {
 }
 
 fn thread_cpu() -> Duration {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
     // SAFETY: clock_gettime writes one timespec into the valid pointer given.
     unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
     Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
@@ -48,7 +51,9 @@ fn median_cpu(cfg: &MpcConfig, inst: &ProblemInstance, reps: usize) -> (f64, Vec
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let path = std::env::args().nth(1).unwrap_or_else(|| "bench/mpc/instances.json".into());
+    let path = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "bench/mpc/instances.json".into());
     let cfg = MpcConfig::default();
     let mut entries = Vec::new();
     for c in 0..=2 {
@@ -57,18 +62,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // Converged SQP: iterate until the plan moves less than 1e-6.
         let mut sqp_iters = 1;
         for k in 2..=30 {
-            let c2 = MpcConfig { sqp_iterations: k, ..cfg.clone() };
+            let c2 = MpcConfig {
+                sqp_iterations: k,
+                ..cfg.clone()
+            };
             let mut a = inst.clone();
             let mut b = inst.clone();
-            let pa = RobotController::new().step(&MpcConfig { sqp_iterations: k - 1, ..cfg.clone() }, &mut a, 0).plan;
+            let pa = RobotController::new()
+                .step(
+                    &MpcConfig {
+                        sqp_iterations: k - 1,
+                        ..cfg.clone()
+                    },
+                    &mut a,
+                    0,
+                )
+                .plan;
             let pb = RobotController::new().step(&c2, &mut b, 0).plan;
             sqp_iters = k;
-            let d = pa.iter().zip(&pb).map(|(x, y)| (x.v - y.v).abs().max((x.omega - y.omega).abs())).fold(0.0, f64::max);
+            let d = pa
+                .iter()
+                .zip(&pb)
+                .map(|(x, y)| (x.v - y.v).abs().max((x.omega - y.omega).abs()))
+                .fold(0.0, f64::max);
             if d < 1e-6 {
                 break;
             }
         }
-        let scfg = MpcConfig { sqp_iterations: sqp_iters, ..cfg.clone() };
+        let scfg = MpcConfig {
+            sqp_iterations: sqp_iters,
+            ..cfg.clone()
+        };
         let (sqp_us, sqp_plan) = median_cpu(&scfg, &inst, 200);
         println!(
             "couplings={c}: RTI {rti_us:.1} µs (cost {:.5}), converged SQP ({sqp_iters} QPs) {sqp_us:.1} µs (cost {:.5})",

@@ -1,6 +1,9 @@
 //! One robot's problem with every neighbour resolved to numbers ([`ProblemInstance`]),
 //! its nonlinear cost and constraints, and its condensed QP linearisation.
 
+// Numeric kernels index several step-aligned arrays with one step index.
+#![allow(clippy::needless_range_loop)]
+
 use crate::types::*;
 use serde::{Deserialize, Serialize};
 
@@ -548,5 +551,118 @@ impl Builder {
         let g = std::mem::take(&mut self.g);
         self.qp.add_residual(w, r0, &g);
         self.g = g;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::robot_instance;
+
+    #[test]
+    fn point_in_frame_jacobians_match_finite_differences() {
+        let a = Pose::new(0.3, -0.2, 0.7);
+        let b = Pose::new(0.1, 0.25, -1.1);
+        let c = [-0.032, 0.01];
+        let (q, ja, jb) = point_in_frame(&a, c, &b);
+        let direct = b.inverse_transform_point(a.transform_point(c));
+        assert!((q[0] - direct[0]).abs() < 1e-12 && (q[1] - direct[1]).abs() < 1e-12);
+        let h = 1e-6;
+        for i in 0..3 {
+            let bump = |p: &Pose, s: f64| {
+                let mut p = *p;
+                match i {
+                    0 => p.x += s,
+                    1 => p.y += s,
+                    _ => p.theta += s,
+                }
+                p
+            };
+            let qa = |s| point_in_frame(&bump(&a, s), c, &b).0;
+            let qb = |s| point_in_frame(&a, c, &bump(&b, s)).0;
+            for r in 0..2 {
+                let fa = (qa(h)[r] - qa(-h)[r]) / (2.0 * h);
+                let fb = (qb(h)[r] - qb(-h)[r]) / (2.0 * h);
+                assert!(
+                    (fa - ja[r][i]).abs() < 1e-7,
+                    "d q{r}/d a{i}: {fa} vs {}",
+                    ja[r][i]
+                );
+                assert!(
+                    (fb - jb[r][i]).abs() < 1e-7,
+                    "d q{r}/d b{i}: {fb} vs {}",
+                    jb[r][i]
+                );
+            }
+        }
+    }
+
+    /// The QP is the Gauss–Newton model of the nonlinear cost: its gradient at ū equals the
+    /// finite-difference gradient of the nonlinear cost (damping has zero gradient at ū),
+    /// and its constraint rows are the linearised coupling constraints.
+    #[test]
+    fn qp_model_matches_nonlinear_problem_at_linearisation_point() {
+        let cfg = MpcConfig::default();
+        let mut inst = robot_instance(2, &cfg).unwrap();
+        let ubar = inst.guess.clone();
+        let mut b = Builder::default();
+        b.build(&mut inst, &ubar);
+        let qp = &b.qp;
+        let n = qp.n;
+        let z: Vec<f64> = ubar.iter().flat_map(|u| [u.v, u.omega]).collect();
+        let h = 1e-7;
+        for j in 0..n {
+            let grad_qp = qp.q[j] + (0..n).map(|i| qp.p[j * n + i] * z[i]).sum::<f64>();
+            let mut up = ubar.clone();
+            let mut dn = ubar.clone();
+            let f = |u: &mut Vec<Command>, s: f64| {
+                if j % 2 == 0 {
+                    u[j / 2].v += s
+                } else {
+                    u[j / 2].omega += s
+                }
+            };
+            f(&mut up, h);
+            f(&mut dn, -h);
+            let fd = (inst.cost(&up) - inst.cost(&dn)) / (2.0 * h);
+            assert!(
+                (fd - grad_qp).abs() < 1e-4 * (1.0 + fd.abs()),
+                "∂J/∂z{j}: fd {fd} vs qp {grad_qp}"
+            );
+        }
+        // Coupling rows: the last rows; their residual at ū equals the nonlinear value.
+        let xs = inst.rollout(&ubar);
+        let mut cons = Vec::new();
+        inst.coupling_constraints(&xs, &mut cons);
+        assert_eq!(
+            cons.len(),
+            2 * cfg.constraint_horizon * (cfg.geometry.anchor_polygon.len() + 4)
+        );
+        let first = qp.m - cons.len();
+        for (r, c) in cons.iter().enumerate() {
+            let row = &qp.a[(first + r) * n..(first + r + 1) * n];
+            let lhs: f64 = row.iter().zip(&z).map(|(a, b)| a * b).sum();
+            // A z̄ − b = g(x̄).
+            assert!((lhs - qp.b[first + r] - c.value).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn wrap_stays_in_half_open_interval() {
+        for a in [
+            -7.0,
+            -std::f64::consts::PI,
+            0.0,
+            3.0,
+            std::f64::consts::PI,
+            10.0,
+        ] {
+            let w = wrap(a);
+            assert!(w > -std::f64::consts::PI - 1e-12 && w <= std::f64::consts::PI + 1e-12);
+            assert!(
+                ((a - w) / std::f64::consts::TAU).fract().abs() < 1e-9
+                    || ((a - w) / std::f64::consts::TAU).fract().abs() > 1.0 - 1e-9
+            );
+        }
     }
 }

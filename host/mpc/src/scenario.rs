@@ -73,7 +73,10 @@ pub fn coupled_lines(
 
 /// A warmed-up problem of one robot with `couplings` (0, 1 or 2) established pairs, taken
 /// from [`coupled_lines`] after five ticks, with its butterfly wings selected.
-pub fn robot_instance(couplings: usize, cfg: &MpcConfig) -> Result<ProblemInstance, crate::MpcError> {
+pub fn robot_instance(
+    couplings: usize,
+    cfg: &MpcConfig,
+) -> Result<ProblemInstance, crate::MpcError> {
     let (n, idx) = match couplings {
         0 => (1, 0),
         1 => (3, 0),

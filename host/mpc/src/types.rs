@@ -483,7 +483,7 @@ impl GeometryF64 {
             let b = p[(k + 1) % p.len()];
             let c = p[(k + 2) % p.len()];
             let cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
-            if !(cross > 0.0) {
+            if cross.is_nan() || cross <= 0.0 {
                 return bad(
                     "geometry.anchor_polygon",
                     "must be convex, counter-clockwise, without repeated vertices",
