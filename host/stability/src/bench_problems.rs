@@ -16,11 +16,11 @@ pub const MASS: f64 = 0.1;
 /// Benchmark families.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Family {
-    /// A straight chain on the ground, 4 contacts per module (cone program).
+    /// A straight chain on the ground, every third module on 4 contacts (cone program).
     Chain,
-    /// A square mesh on the ground, with loops (cone program).
+    /// A square mesh on the ground, with loops; a checkerboard of supported modules.
     Mesh,
-    /// A random planar tree on the ground (cone program).
+    /// A random planar tree on the ground, every other module supported (cone program).
     TreeGround,
     /// A random 3-D tree hanging from one fixed module (determinate: fast path).
     TreeHanging,
@@ -49,7 +49,11 @@ impl Family {
     /// Build an instance with `n` modules (seeded for trees).
     pub fn build(&self, n: usize, seed: u64) -> Assembly {
         match self {
-            Family::Chain => on_ground(&(0..n).map(|i| (i as i64, 0)).collect::<Vec<_>>(), &chain_edges(n)),
+            Family::Chain => on_ground(
+                &(0..n).map(|i| (i as i64, 0)).collect::<Vec<_>>(),
+                &chain_edges(n),
+                |i| i % 3 == 0 || i + 1 == n,
+            ),
             Family::Mesh => mesh(n),
             Family::TreeGround => tree_ground(n, seed),
             Family::TreeHanging => tree_hanging(n, seed),
@@ -87,12 +91,21 @@ fn module(i: usize, p: Vec3, fixed: bool) -> Module {
     }
 }
 
-/// Modules on grid cells, edges (child, parent), 4 ground contacts each.
-fn on_ground(cells: &[(i64, i64)], edges: &[(usize, usize)]) -> Assembly {
+/// Modules on grid cells, edges (child, parent); the modules with `supported(i)` stand on
+/// 4 ground contacts (2 wheels with friction, 2 frictionless casters), the others hang from
+/// their neighbours, so the connections carry load.
+fn on_ground(
+    cells: &[(i64, i64)],
+    edges: &[(usize, usize)],
+    supported: impl Fn(usize) -> bool,
+) -> Assembly {
     let pos = |c: (i64, i64)| [c.0 as f64 * PITCH, c.1 as f64 * PITCH, 0.0];
     let modules: Vec<Module> = cells.iter().enumerate().map(|(i, c)| module(i, pos(*c), false)).collect();
     let mut contacts = Vec::with_capacity(cells.len() * 4);
     for (i, c) in cells.iter().enumerate() {
+        if !supported(i) {
+            continue;
+        }
         let p = pos(*c);
         for (dx, dy, mu) in [(0.0, 0.02, 0.6), (0.0, -0.02, 0.6), (0.02, 0.0, 0.0), (-0.02, 0.0, 0.0)] {
             contacts.push(Contact {
@@ -143,7 +156,7 @@ fn mesh(n: usize) -> Assembly {
             edges.push((i, i - cols));
         }
     }
-    on_ground(&cells, &edges)
+    on_ground(&cells, &edges, |i| ((i % cols) + (i / cols)) % 2 == 0)
 }
 
 fn tree_ground(n: usize, seed: u64) -> Assembly {
@@ -164,7 +177,7 @@ fn tree_ground(n: usize, seed: u64) -> Assembly {
         edges.push((cells.len(), p));
         cells.push(c);
     }
-    on_ground(&cells, &edges)
+    on_ground(&cells, &edges, |i| i % 2 == 0)
 }
 
 fn tree_hanging(n: usize, seed: u64) -> Assembly {

@@ -174,8 +174,10 @@ fn lorentz_connector_fast_path_agrees_with_cone_program() {
     let fast = evaluate_with(&a, Options { fast_path: true }).unwrap();
     let socp = evaluate_with(&a, Options { fast_path: false }).unwrap();
     assert_eq!(fast.verdict, socp.verdict);
+    // The λ1 term is 10⁴ times lighter than λ_max: non-critical connections are only as exact
+    // as the solver's relative gap allows.
     for (x, y) in fast.connections.iter().zip(&socp.connections) {
-        assert!(close(x.strength, y.strength, 1e-4), "{x:?} vs {y:?}");
+        assert!(close(x.strength, y.strength, 1e-3), "{x:?} vs {y:?}");
     }
     assert!(close(fast.margin.unwrap(), socp.margin.unwrap(), 1e-4));
 }

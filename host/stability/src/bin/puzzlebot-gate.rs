@@ -25,6 +25,14 @@ enum Cmd {
         #[arg(long)]
         picture: Option<PathBuf>,
     },
+    /// Time the gate on files (load excluded, model construction included): best and median.
+    Time {
+        /// Assembly files.
+        files: Vec<PathBuf>,
+        /// Repetitions per file.
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
+    },
     /// Write a benchmark problem as JSON (families: chain, mesh, tree-ground, tree-hanging).
     Export {
         /// Family name.
@@ -56,6 +64,47 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         },
+        Cmd::Time { files, repeat } => {
+            for f in files {
+                let a = match puzzlebot_stability::load_assembly(&f) {
+                    Ok(a) => a,
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(2);
+                    }
+                };
+                let mut times = Vec::new();
+                let mut last = None;
+                for _ in 0..repeat.max(1) {
+                    let t = std::time::Instant::now();
+                    let r = match puzzlebot_stability::evaluate(&a) {
+                        Ok(r) => r,
+                        Err(e) => {
+                            eprintln!("error: {}: {e}", f.display());
+                            return ExitCode::from(2);
+                        }
+                    };
+                    times.push(t.elapsed().as_secs_f64());
+                    last = Some(r);
+                }
+                times.sort_by(f64::total_cmp);
+                let n = a.modules.len();
+                if let Some(r) = last {
+                    println!(
+                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms ({:.1} µs/module) path={:?} iters={}",
+                        f.display(),
+                        r.verdict.name(),
+                        r.max_strength.unwrap_or(f64::NAN),
+                        times[0] * 1e3,
+                        times[times.len() / 2] * 1e3,
+                        times[0] * 1e6 / n as f64,
+                        r.stats.path,
+                        r.stats.iterations
+                    );
+                }
+            }
+            ExitCode::SUCCESS
+        }
         Cmd::Export {
             family,
             n,
