@@ -2,6 +2,9 @@
 //! streaming wheel-speed commands at 30 Hz to every robot (so every robot runs its speed
 //! loop, authenticates commands and seals telemetry). Prints the real-time factor.
 //!
+//! Two layouts: `spread` (rows of ten, 0.3 m apart: every robot circles on its own) and
+//! `crowded` (0.15 m apart: the circles overlap, robots keep colliding and pushing).
+//!
 //! `cargo bench -p puzzlebot-sim --bench sim_speed [-- ROBOTS SECONDS]`
 
 #[path = "../tests/common/mod.rs"]
@@ -25,7 +28,17 @@ fn main() {
         .collect();
     let robots: usize = args.first().and_then(|a| a.parse().ok()).unwrap_or(100);
     let secs: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(20.0);
-    let mut w = World::new(&Scenario::grid(robots, 1), &key()).expect("world");
+    for (layout, spacing) in [("spread", 0.3), ("crowded", 0.15)] {
+        let mut s = Scenario::grid(robots, 1);
+        for (i, r) in s.robots.iter_mut().enumerate() {
+            r.pose = [(i % 10) as f64 * spacing, (i / 10) as f64 * spacing, 0.0];
+        }
+        run(layout, &s, robots, secs);
+    }
+}
+
+fn run(layout: &str, scenario: &Scenario, robots: usize, secs: f64) {
+    let mut w = World::new(scenario, &key()).expect("world");
     let mut host = MiniHost::new(key());
     let ids = w.robot_ids();
     // Connect everyone first (not timed).
@@ -58,13 +71,14 @@ fn main() {
         .map(|(a, b)| (b - a) as f64 * 1e-9);
     let sim_wall = wall - host_time.as_secs_f64();
     let t = w.ground_truth();
+    let contacts = w.contact_count();
     let driving = t
         .robots
         .iter()
         .filter(|r| r.wheel_rpm[0].abs() > 30.0)
         .count();
     println!(
-        "sim_speed: {robots} robots, {secs} s simulated (plant 1 kHz, firmware 50 Hz, commands 30 Hz): \
+        "sim_speed [{layout}, {contacts} robot pairs in contact at the end]: {robots} robots, {secs} s simulated (plant 1 kHz, firmware 50 Hz, commands 30 Hz): \
          wall {wall:.3} s total = {:.1}x real time; simulator alone (without the in-process host's \
          sealing/opening) {sim_wall:.3} s = {:.1}x real time; {driving}/{robots} robots driving; \
          {:.0} ns per robot-step",
@@ -76,7 +90,7 @@ fn main() {
         // The host's share is measured in wall time; scale it to CPU time by the same ratio.
         let sim_cpu = cpu * (sim_wall / wall);
         println!(
-            "sim_speed: one core, CPU time {cpu:.3} s total = {:.1}x real time; simulator alone \
+            "sim_speed [{layout}]: one core, CPU time {cpu:.3} s total = {:.1}x real time; simulator alone \
              {sim_cpu:.3} s = {:.1}x real time ({:.0} ns per robot-step)",
             secs / cpu,
             secs / sim_cpu,

@@ -121,8 +121,8 @@ pub struct BatteryModel {
     pub swing: f64,
     /// Internal resistance (Ω).
     pub resistance: f64,
-    /// Capacity (C).
-    pub capacity_c: f64,
+    /// 1 / capacity (1/C).
+    pub inv_capacity: f64,
     /// Current of the electronics (A).
     pub idle: f64,
 }
@@ -202,7 +202,7 @@ impl DriveModel {
                 nominal: f64::from(p.battery_voltage),
                 swing: f64::from(p.battery_voltage_swing),
                 resistance: f64::from(p.battery_resistance),
-                capacity_c: f64::from(p.battery_capacity_mah) * 3.6,
+                inv_capacity: 1.0 / (f64::from(p.battery_capacity_mah) * 3.6).max(1e-9),
                 idle: f64::from(p.idle_current),
             },
         }
@@ -254,17 +254,16 @@ impl BatteryModel {
 /// Solve `a x = b` for the drive's 5 × 5 structure: rows/columns 0 and 1 are the wheels,
 /// which couple only to themselves and to the body (columns 2…4), never to each other. The
 /// wheels are eliminated (their diagonal is ≥ the wheel inertia, or 1 for a locked wheel),
-/// leaving a 3 × 3 body system solved by Cramer's rule; then the wheels are back-substituted.
-fn solve5(a: [[f64; 5]; 5], b: [f64; 5]) -> [f64; 5] {
+/// leaving a 3 × 3 body system (Gaussian elimination); then the wheels are back-substituted.
+fn solve5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> [f64; 5] {
+    let inv_w = [1.0 / a[0][0], 1.0 / a[1][1]];
     let mut m = [[0.0; 3]; 3];
     let mut y = [0.0; 3];
     for r in 0..3 {
         y[r] = b[r + 2];
-        for c in 0..3 {
-            m[r][c] = a[r + 2][c + 2];
-        }
+        m[r] = [a[r + 2][2], a[r + 2][3], a[r + 2][4]];
         for s in 0..2 {
-            let f = a[r + 2][s] / a[s][s];
+            let f = a[r + 2][s] * inv_w[s];
             if f != 0.0 {
                 for c in 0..3 {
                     m[r][c] -= f * a[s][c + 2];
@@ -273,28 +272,47 @@ fn solve5(a: [[f64; 5]; 5], b: [f64; 5]) -> [f64; 5] {
             }
         }
     }
-    let det3 = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
-    };
-    let d = det3(&m);
+    // 3 × 3 Gaussian elimination with partial pivoting.
     let mut x = [0.0; 5];
-    if d.abs() > 1e-300 {
-        for k in 0..3 {
-            let mut mk = m;
-            for r in 0..3 {
-                mk[r][k] = y[r];
+    for col in 0..3 {
+        let mut piv = col;
+        for r in col + 1..3 {
+            if m[r][col].abs() > m[piv][col].abs() {
+                piv = r;
             }
-            x[k + 2] = det3(&mk) / d;
         }
+        m.swap(col, piv);
+        y.swap(col, piv);
+        let d = m[col][col];
+        if d.abs() < 1e-300 {
+            continue;
+        }
+        let inv = 1.0 / d;
+        for r in col + 1..3 {
+            let f = m[r][col] * inv;
+            for c in col..3 {
+                m[r][c] -= f * m[col][c];
+            }
+            y[r] -= f * y[col];
+        }
+    }
+    for r in (0..3).rev() {
+        let mut v = y[r];
+        for c in r + 1..3 {
+            v -= m[r][c] * x[c + 2];
+        }
+        x[r + 2] = if m[r][r].abs() < 1e-300 {
+            0.0
+        } else {
+            v / m[r][r]
+        };
     }
     for s in 0..2 {
         let mut v = b[s];
         for c in 2..5 {
             v -= a[s][c] * x[c];
         }
-        x[s] = v / a[s][s];
+        x[s] = v * inv_w[s];
     }
     x
 }
@@ -348,9 +366,8 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
     for (j, lk) in lat_k.iter_mut().enumerate().take(md.n_lateral) {
         let (x, mu_n) = md.lateral[j];
         let vl = (st.vy + st.omega * x).abs();
-        let by_angle = 1.0 / (md.alpha_sat * (roll + V_ROLL_EPS));
-        let by_cap = 1.0 / vl.max(V_REG);
-        *lk = mu_n * by_angle.min(by_cap);
+        // min(1/(α_sat·rolling), 1/|v_lat|): linear in the slip angle, capped at μN.
+        *lk = mu_n / (md.alpha_sat * (roll + V_ROLL_EPS)).max(vl.max(V_REG));
     }
     let mut cas_k = [0.0; 2];
     for (j, ck) in cas_k.iter_mut().enumerate().take(md.n_casters) {
@@ -429,7 +446,7 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
             a[3][4] += dt * k * xj;
             a[3][3] += dt * k * xj * xj;
         }
-        x = solve5(a, b);
+        x = solve5(&a, &b);
         // Traction limits and friction sign changes.
         let mut again = false;
         for s in 0..2 {
@@ -465,7 +482,7 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
     st.vy = x[4];
     // Battery: motors draw |i| from the pack (regeneration is not stored).
     let i_total = md.battery.idle + st.current[0].abs() + st.current[1].abs();
-    st.soc = (st.soc - i_total * dt / md.battery.capacity_c).max(0.0);
+    st.soc = (st.soc - i_total * dt * md.battery.inv_capacity).max(0.0);
     st.battery_v = (md.battery.open_circuit(st.soc) - i_total * md.battery.resistance).max(0.0);
 }
 
@@ -520,7 +537,7 @@ mod tests {
             }
         }
         let b = [1.0, -2.0, 0.5, 3.0, -1.0];
-        let x = solve5(a, b);
+        let x = solve5(&a, &b);
         for r in 0..5 {
             let lhs: f64 = (0..5).map(|c| a[r][c] * x[c]).sum();
             assert!((lhs - b[r]).abs() < 1e-12, "row {r}: {lhs} vs {}", b[r]);

@@ -320,6 +320,22 @@ impl Mechanics {
         });
     }
 
+    /// Pairs of active bodies whose rectangles touch (within 0.5 mm) or overlap.
+    pub fn contact_count(&self, bodies: &[Body]) -> usize {
+        let mut grown = self.shape.half;
+        grown[0] += 2.5e-4;
+        grown[1] += 2.5e-4;
+        let mut n = 0;
+        for (i, a) in bodies.iter().enumerate() {
+            for b in &bodies[i + 1..] {
+                if a.active && b.active && rect_overlap(&a.frame(), &b.frame(), grown).is_some() {
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+
     /// Remove every coupling that involves robot `i` (fallen, switched off and lifted).
     pub fn detach_robot(&mut self, i: usize, events: &mut Vec<LinkEvent>) {
         self.links.retain(|l| {

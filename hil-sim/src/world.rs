@@ -753,6 +753,11 @@ impl World {
         self.index(id).map(|i| self.robots[i].drive)
     }
 
+    /// Pairs of robots whose bodies touch or overlap now (a measure of crowding).
+    pub fn contact_count(&self) -> usize {
+        self.mech.contact_count(&self.bodies)
+    }
+
     /// Events so far.
     pub fn events(&self) -> &[SimEvent] {
         &self.events

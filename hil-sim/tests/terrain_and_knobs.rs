@@ -138,3 +138,24 @@ fn side_knobs_need_sub_millimetre_alignment_and_are_rigid_once_in() {
     );
     assert!((p1.yaw - p2.yaw).abs() < 1e-3);
 }
+
+#[test]
+fn shipped_scenario_files_parse_and_build() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).expect("scenarios dir") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let s = Scenario::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+            let mut w = World::new(&s, &key()).expect("world");
+            w.run_for(100_000);
+            assert!(
+                w.ground_truth().robots.iter().all(|r| !r.fallen),
+                "{}",
+                path.display()
+            );
+            n += 1;
+        }
+    }
+    assert!(n >= 3);
+}
