@@ -255,6 +255,7 @@ impl BatteryModel {
 /// which couple only to themselves and to the body (columns 2…4), never to each other. The
 /// wheels are eliminated (their diagonal is ≥ the wheel inertia, or 1 for a locked wheel),
 /// leaving a 3 × 3 body system (Gaussian elimination); then the wheels are back-substituted.
+#[allow(clippy::needless_range_loop)] // dense small-matrix elimination
 fn solve5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> [f64; 5] {
     let inv_w = [1.0 / a[0][0], 1.0 / a[1][1]];
     let mut m = [[0.0; 3]; 3];
