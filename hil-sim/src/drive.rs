@@ -275,6 +275,7 @@ fn solve5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> [f64; 5] {
     }
     // 3 × 3 Gaussian elimination with partial pivoting.
     let mut x = [0.0; 5];
+    let mut inv_diag = [0.0; 3];
     for col in 0..3 {
         let mut piv = col;
         for r in col + 1..3 {
@@ -289,6 +290,7 @@ fn solve5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> [f64; 5] {
             continue;
         }
         let inv = 1.0 / d;
+        inv_diag[col] = inv;
         for r in col + 1..3 {
             let f = m[r][col] * inv;
             for c in col..3 {
@@ -302,11 +304,7 @@ fn solve5(a: &[[f64; 5]; 5], b: &[f64; 5]) -> [f64; 5] {
         for c in r + 1..3 {
             v -= m[r][c] * x[c + 2];
         }
-        x[r + 2] = if m[r][r].abs() < 1e-300 {
-            0.0
-        } else {
-            v / m[r][r]
-        };
+        x[r + 2] = v * inv_diag[r]; // 0 for a singular pivot
     }
     for s in 0..2 {
         let mut v = b[s];
