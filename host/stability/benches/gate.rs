@@ -19,7 +19,12 @@ fn sizes() -> Vec<usize> {
 }
 
 fn bench(c: &mut Criterion) {
-    let families = [Family::Chain, Family::Mesh, Family::TreeGround, Family::TreeHanging];
+    let families = [
+        Family::Chain,
+        Family::Mesh,
+        Family::TreeGround,
+        Family::TreeHanging,
+    ];
     let mut summary = Vec::new();
     for fam in families {
         let mut g = c.benchmark_group(format!("gate/{}", fam.name()));

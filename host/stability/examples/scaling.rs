@@ -10,7 +10,12 @@ fn main() {
         .nth(1)
         .and_then(|s| s.parse().ok())
         .unwrap_or(1000);
-    for fam in [Family::Chain, Family::Mesh, Family::TreeGround, Family::TreeHanging] {
+    for fam in [
+        Family::Chain,
+        Family::Mesh,
+        Family::TreeGround,
+        Family::TreeHanging,
+    ] {
         let mut n = 10;
         while n <= max_n {
             let a = fam.build(n, 7);

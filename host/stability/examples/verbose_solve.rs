@@ -9,7 +9,10 @@ use std::time::Instant;
 
 fn main() {
     let fam = std::env::args().nth(1).unwrap_or("chain".into());
-    let n: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(100);
+    let n: usize = std::env::args()
+        .nth(2)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(100);
     let a = Family::parse(&fam).expect("family").build(n, 7);
     for rep in 0..5 {
         let t0 = Instant::now();

@@ -100,14 +100,23 @@ fn on_ground(
     supported: impl Fn(usize) -> bool,
 ) -> Assembly {
     let pos = |c: (i64, i64)| [c.0 as f64 * PITCH, c.1 as f64 * PITCH, 0.0];
-    let modules: Vec<Module> = cells.iter().enumerate().map(|(i, c)| module(i, pos(*c), false)).collect();
+    let modules: Vec<Module> = cells
+        .iter()
+        .enumerate()
+        .map(|(i, c)| module(i, pos(*c), false))
+        .collect();
     let mut contacts = Vec::with_capacity(cells.len() * 4);
     for (i, c) in cells.iter().enumerate() {
         if !supported(i) {
             continue;
         }
         let p = pos(*c);
-        for (dx, dy, mu) in [(0.0, 0.02, 0.6), (0.0, -0.02, 0.6), (0.02, 0.0, 0.0), (-0.02, 0.0, 0.0)] {
+        for (dx, dy, mu) in [
+            (0.0, 0.02, 0.6),
+            (0.0, -0.02, 0.6),
+            (0.02, 0.0, 0.0),
+            (-0.02, 0.0, 0.0),
+        ] {
             contacts.push(Contact {
                 module: format!("m{i}"),
                 point: [p[0] + dx, p[1] + dy, 0.0],
@@ -146,7 +155,9 @@ fn on_ground(
 
 fn mesh(n: usize) -> Assembly {
     let cols = (n as f64).sqrt().ceil().max(1.0) as usize;
-    let cells: Vec<(i64, i64)> = (0..n).map(|i| ((i % cols) as i64, (i / cols) as i64)).collect();
+    let cells: Vec<(i64, i64)> = (0..n)
+        .map(|i| ((i % cols) as i64, (i / cols) as i64))
+        .collect();
     let mut edges = Vec::new();
     for i in 0..n {
         if i % cols > 0 {
@@ -156,7 +167,9 @@ fn mesh(n: usize) -> Assembly {
             edges.push((i, i - cols));
         }
     }
-    on_ground(&cells, &edges, |i| ((i % cols) + (i / cols)) % 2 == 0)
+    on_ground(&cells, &edges, |i| {
+        ((i % cols) + (i / cols)).is_multiple_of(2)
+    })
 }
 
 fn tree_ground(n: usize, seed: u64) -> Assembly {
@@ -182,21 +195,35 @@ fn tree_ground(n: usize, seed: u64) -> Assembly {
 
 fn tree_hanging(n: usize, seed: u64) -> Assembly {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let dirs: [Vec3; 5] = [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]];
+    let dirs: [Vec3; 5] = [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, -1.0],
+    ];
     let mut pos: Vec<Vec3> = vec![[0.0; 3]];
     let mut modules = vec![module(0, [0.0; 3], true)];
     let mut connections = Vec::new();
     for i in 1..n.max(1) {
         let p = rng.random_range(0..i);
         let d = dirs[rng.random_range(0..5)];
-        let q = [pos[p][0] + d[0] * PITCH, pos[p][1] + d[1] * PITCH, pos[p][2] + d[2] * PITCH];
+        let q = [
+            pos[p][0] + d[0] * PITCH,
+            pos[p][1] + d[1] * PITCH,
+            pos[p][2] + d[2] * PITCH,
+        ];
         pos.push(q);
         modules.push(module(i, q, false));
         connections.push(Connection {
             child: format!("m{i}"),
             parent: format!("m{p}"),
             connector: "link".into(),
-            point: [(q[0] + pos[p][0]) * 0.5, (q[1] + pos[p][1]) * 0.5, (q[2] + pos[p][2]) * 0.5 + 0.02],
+            point: [
+                (q[0] + pos[p][0]) * 0.5,
+                (q[1] + pos[p][1]) * 0.5,
+                (q[2] + pos[p][2]) * 0.5 + 0.02,
+            ],
             axis: Some(d),
             x_axis: None,
         });

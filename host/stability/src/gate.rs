@@ -144,7 +144,9 @@ impl Report {
     pub fn broken(&self) -> Vec<usize> {
         self.connections
             .iter()
-            .filter(|c| c.over_limit || (self.verdict == Verdict::InternalInstability && c.critical))
+            .filter(|c| {
+                c.over_limit || (self.verdict == Verdict::InternalInstability && c.critical)
+            })
             .map(|c| c.index)
             .collect()
     }
@@ -431,8 +433,7 @@ fn determinate_tree(r: &Resolved) -> Option<(Verdict, Option<State>)> {
         return None;
     }
     if r.contacts.iter().any(|c| !r.fixed[c.module])
-        || r
-            .module_contacts
+        || r.module_contacts
             .iter()
             .any(|(c, o)| !r.fixed[c.module] || !r.fixed[*o])
     {
@@ -520,8 +521,16 @@ fn determinate_tree(r: &Resolved) -> Option<(Verdict, Option<State>)> {
         } else {
             ([-fe[0], -fe[1], -fe[2]], [-mp[0], -mp[1], -mp[2]])
         };
-        let fl = [dot(c.frame[0], fw), dot(c.frame[1], fw), dot(c.frame[2], fw)];
-        let ml = [dot(c.frame[0], mw), dot(c.frame[1], mw), dot(c.frame[2], mw)];
+        let fl = [
+            dot(c.frame[0], fw),
+            dot(c.frame[1], fw),
+            dot(c.frame[2], fw),
+        ];
+        let ml = [
+            dot(c.frame[0], mw),
+            dot(c.frame[1], mw),
+            dot(c.frame[2], mw),
+        ];
         let j = if c.child == i { c.parent } else { c.child };
         sf[j] = add(sf[j], sf[i]);
         sm[j] = add(sm[j], sm[i]);

@@ -145,7 +145,10 @@ pub fn render_text(r: &Report) -> String {
     }
     let worst = r.worst_connections(5);
     if !worst.is_empty() {
-        let _ = writeln!(s, "worst connections (child→parent: use of limit, strength, f̄ = fx fy fcon mx my mz):");
+        let _ = writeln!(
+            s,
+            "worst connections (child→parent: use of limit, strength, f̄ = fx fy fcon mx my mz):"
+        );
         for c in worst {
             let u = c
                 .use_of_limit

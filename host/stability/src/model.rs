@@ -301,7 +301,7 @@ pub fn norm(a: Vec3) -> f64 {
 /// A right-handed frame [x, y, z] (columns of ᴵR) with z along `z`; x from the hint.
 pub fn frame_from_z(z: Vec3, x_hint: Option<Vec3>) -> Option<[Vec3; 3]> {
     let nz = norm(z);
-    if !(nz > 1e-12) {
+    if nz.is_nan() || nz <= 1e-12 {
         return None;
     }
     let z = scale(z, 1.0 / nz);

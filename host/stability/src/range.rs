@@ -43,7 +43,7 @@ pub fn load_range(
         message: format!("unknown module {module:?}"),
     })?;
     let nd = norm(direction);
-    if !(nd > 0.0 && nd.is_finite()) || !point.iter().all(|x| x.is_finite()) {
+    if !(nd > 0.0 && nd.is_finite() && point.iter().all(|x| x.is_finite())) {
         return Err(ModelError {
             field: "direction".into(),
             message: "direction must be a finite non-zero vector and the point finite".into(),

@@ -8,6 +8,8 @@
 //! - per box connection its characteristic strength w_Aik (40); one global w_A^max;
 //! - per point contact (f_z, f_x/μ_x, f_y/μ_y), which is directly the cone (30–32).
 
+#![allow(clippy::needless_range_loop)] // index loops mirror the paper's per-component equations
+
 use crate::model::{cross, ConnectorSpec, Resolved, Vec3};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{

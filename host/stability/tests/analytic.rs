@@ -130,7 +130,11 @@ fn cantilever_root_moment_matches_statics_and_verdict_flips_at_predicted_k() {
             let r = evaluate_with(&a, Options { fast_path: fast }).unwrap();
             assert_eq!(
                 r.stats.path,
-                if fast { Path::DeterminateTree } else { Path::Socp }
+                if fast {
+                    Path::DeterminateTree
+                } else {
+                    Path::Socp
+                }
             );
             let expect = if k <= k_star {
                 Verdict::Stable
@@ -143,9 +147,16 @@ fn cantilever_root_moment_matches_statics_and_verdict_flips_at_predicted_k() {
             let f = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
             let mo = (w[3] * w[3] + w[4] * w[4] + w[5] * w[5]).sqrt();
             assert!(close(f, shear, 1e-5), "k={k} fast={fast}: {f} vs {shear}");
-            assert!(close(mo, moment, 1e-5), "k={k} fast={fast}: {mo} vs {moment}");
+            assert!(
+                close(mo, moment, 1e-5),
+                "k={k} fast={fast}: {mo} vs {moment}"
+            );
             // Required strength (40) with ωK = 1 and the margin (42).
-            assert!(close(root.strength, (shear * shear + moment * moment).sqrt(), 1e-5));
+            assert!(close(
+                root.strength,
+                (shear * shear + moment * moment).sqrt(),
+                1e-5
+            ));
             assert!(close(r.max_strength.unwrap(), root.strength, 1e-5));
             let margin = (f_lim - shear).min(m_lim - moment);
             assert!(
@@ -194,7 +205,11 @@ fn chain_hung_between_two_supports_has_symmetric_loads() {
         } else {
             format!("m{}", i - 1)
         };
-        conns.push(conn(&format!("m{i}"), &parent, [p * (i as f64 - 0.5), 0.0, 0.0]));
+        conns.push(conn(
+            &format!("m{i}"),
+            &parent,
+            [p * (i as f64 - 0.5), 0.0, 0.0],
+        ));
     }
     mods.push(module("right", 1.0, [p * (k + 1) as f64, 0.0, 0.0], true));
     // Last connection: child m_k, parent right.
@@ -216,12 +231,21 @@ fn chain_hung_between_two_supports_has_symmetric_loads() {
         (c.wrench[0].powi(2) + c.wrench[1].powi(2)).sqrt()
     };
     let half = k as f64 * m * G / 2.0;
-    assert!(close(shear(first), half, 1e-4), "{} vs {half}", shear(first));
+    assert!(
+        close(shear(first), half, 1e-4),
+        "{} vs {half}",
+        shear(first)
+    );
     assert!(close(shear(last), half, 1e-4), "{} vs {half}", shear(last));
     // Mirror-symmetric strengths.
     for i in 0..=k {
         let (a, b) = (&r.connections[i], &r.connections[k - i]);
-        assert!(close(a.strength, b.strength, 1e-4), "{i}: {} vs {}", a.strength, b.strength);
+        assert!(
+            close(a.strength, b.strength, 1e-4),
+            "{i}: {} vs {}",
+            a.strength,
+            b.strength
+        );
     }
 }
 

@@ -58,8 +58,16 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     let a = PuzzleAssembly {
         robots: vec![np(0.0, 0.0), np(0.0, 0.05), np(0.0, 0.10)],
         pairs: vec![
-            Pair { a: 0, b: 1, kind: PairKind::Knob },
-            Pair { a: 1, b: 2, kind: PairKind::Knob },
+            Pair {
+                a: 0,
+                b: 1,
+                kind: PairKind::Knob,
+            },
+            Pair {
+                a: 1,
+                b: 2,
+                kind: PairKind::Knob,
+            },
         ],
     };
     let edge = 0.3;
@@ -81,10 +89,26 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
     let a = PuzzleAssembly {
         robots: vec![np(0.0, 0.0), np(0.0, 0.05), np(back, 0.0), np(back, 0.05)],
         pairs: vec![
-            Pair { a: 0, b: 1, kind: PairKind::Knob },
-            Pair { a: 2, b: 3, kind: PairKind::Knob },
-            Pair { a: 0, b: 2, kind: PairKind::Anchor },
-            Pair { a: 1, b: 3, kind: PairKind::Anchor },
+            Pair {
+                a: 0,
+                b: 1,
+                kind: PairKind::Knob,
+            },
+            Pair {
+                a: 2,
+                b: 3,
+                kind: PairKind::Knob,
+            },
+            Pair {
+                a: 0,
+                b: 2,
+                kind: PairKind::Anchor,
+            },
+            Pair {
+                a: 1,
+                b: 3,
+                kind: PairKind::Anchor,
+            },
         ],
     };
     let edge = 0.2;
@@ -107,14 +131,22 @@ fn flat_floor_reaches_the_horizon_and_a_step_up_blocks() {
     let p = params();
     let a = PuzzleAssembly {
         robots: vec![np(0.0, 0.0), np(0.0, 0.05)],
-        pairs: vec![Pair { a: 0, b: 1, kind: PairKind::Knob }],
+        pairs: vec![Pair {
+            a: 0,
+            b: 1,
+            kind: PairKind::Knob,
+        }],
     };
     let adv = max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.05).unwrap();
     assert_eq!(adv.limited_by, LimitedBy::Horizon);
     let mut t = cliff(0.5);
-    t.platforms.push(Platform::rect("wall", [0.5, -1.0], [1.0, 1.0], 0.05));
+    t.platforms
+        .push(Platform::rect("wall", [0.5, -1.0], [1.0, 1.0], 0.05));
     let adv = max_safe_advance(&a, &p, &t, 0.0, 0.05).unwrap();
-    assert!(matches!(adv.limited_by, LimitedBy::StepUp { .. }), "{adv:?}");
+    assert!(
+        matches!(adv.limited_by, LimitedBy::StepUp { .. }),
+        "{adv:?}"
+    );
     assert!((adv.distance - (0.5 - 0.02)).abs() < 1e-5, "{adv:?}");
 }
 
@@ -125,7 +157,11 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
     let p = params();
     let robots: Vec<RobotPose> = (0..6).map(|i| np(-0.057 * i as f64, 0.0)).collect();
     let pairs = (0..5)
-        .map(|i| Pair { a: i, b: i + 1, kind: PairKind::Anchor })
+        .map(|i| Pair {
+            a: i,
+            b: i + 1,
+            kind: PairKind::Anchor,
+        })
         .collect();
     let a = PuzzleAssembly { robots, pairs };
     let measured = max_safe_advance(&a, &p, &cliff(0.1), 0.0, 0.01).unwrap();
@@ -135,11 +171,17 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
         &cliff(0.1),
         0.0,
         0.01,
-        AdvanceOptions { rigid_couplings: true, horizon: 1.0 },
+        AdvanceOptions {
+            rigid_couplings: true,
+            horizon: 1.0,
+        },
     )
     .unwrap();
     assert_eq!(rigid.limited_by, LimitedBy::Tips);
-    assert!(measured.distance < rigid.distance, "{measured:?} vs {rigid:?}");
+    assert!(
+        measured.distance < rigid.distance,
+        "{measured:?} vs {rigid:?}"
+    );
     match &measured.limited_by {
         LimitedBy::Connection { pairs } => assert!(!pairs.is_empty(), "{pairs:?}"),
         other => panic!("expected a connection limit, got {other:?}"),
@@ -156,7 +198,11 @@ fn bad_pairs_are_rejected() {
     let p = params();
     let a = PuzzleAssembly {
         robots: vec![np(0.0, 0.0)],
-        pairs: vec![Pair { a: 0, b: 3, kind: PairKind::Knob }],
+        pairs: vec![Pair {
+            a: 0,
+            b: 3,
+            kind: PairKind::Knob,
+        }],
     };
     assert_eq!(
         max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.01).unwrap_err(),

@@ -112,7 +112,9 @@ fn main() -> ExitCode {
             seed,
         } => {
             let Some(f) = Family::parse(&family) else {
-                eprintln!("error: unknown family {family:?} (chain, mesh, tree-ground, tree-hanging)");
+                eprintln!(
+                    "error: unknown family {family:?} (chain, mesh, tree-ground, tree-hanging)"
+                );
                 return ExitCode::from(2);
             };
             if n == 0 {
