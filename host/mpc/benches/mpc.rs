@@ -50,8 +50,12 @@ fn threads() -> usize {
 
 fn report_percentiles() {
     let cfg = MpcConfig::default();
-    for c in 0..=2 {
-        let inst = robot_instance(c, &cfg);
+    for (c, accel) in [(0, false), (1, false), (2, false), (2, true)] {
+        let mut inst = robot_instance(c, &cfg);
+        if accel {
+            // THESIS 4.12's optional acceleration box: +4 rows per step.
+            inst.limits.accel_max = Some([1.0, 20.0]);
+        }
         let mut ctl = RobotController::new();
         let mut samples = Vec::with_capacity(2000);
         let mut cpu = Vec::with_capacity(2000);
@@ -75,7 +79,8 @@ fn report_percentiles() {
         let (med, p99) = percentiles(samples);
         let (cmed, cp99) = percentiles(cpu);
         println!(
-            "robot-solve couplings={c}: wall median {:.1} µs, p99 {:.1} µs | thread-CPU median {:.1} µs, p99 {:.1} µs ({} rows/coupling-step, {iters} IPM iterations)",
+            "robot-solve couplings={c}{}: wall median {:.1} µs, p99 {:.1} µs | thread-CPU median {:.1} µs, p99 {:.1} µs ({} rows/coupling-step, {iters} IPM iterations)",
+            if accel { " +accel box" } else { "" },
             med.as_secs_f64() * 1e6,
             p99.as_secs_f64() * 1e6,
             cmed.as_secs_f64() * 1e6,

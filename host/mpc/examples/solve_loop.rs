@@ -1,4 +1,4 @@
-//! Repeats one robot's solve (2 couplings) for profiling: `solve_loop [N] [tol] [accel 0/1] [refine_iter] [refine_tol] [reuse 0/1]`.
+//! Repeats one robot's solve (2 couplings) for profiling: `solve_loop [N] [tol] [accel 0/1] [refine_iter] [refine_tol] [reuse 0/1] [tol_feas]`.
 use puzzlebot_mpc::scenario::coupled_lines;
 use puzzlebot_mpc::*;
 
@@ -12,7 +12,7 @@ fn main() {
     cfg.solver.refinement_reltol = a.get(4).and_then(|s| s.parse().ok()).unwrap_or(1e-13);
     cfg.solver.reuse_factorisation = a.get(5).map(|s| s != "0").unwrap_or(true);
     cfg.solver.tol_gap = tol;
-    cfg.solver.tol_feas = tol;
+    cfg.solver.tol_feas = a.get(6).and_then(|s| s.parse().ok()).unwrap_or(tol);
     let (mut robots, pairs) = coupled_lines(3, 3, cfg.horizon, cfg.dt);
     if !accel {
         for r in &mut robots {

@@ -333,7 +333,14 @@ impl DistributedMpc {
                 velocities,
                 w_smooth: cfg.w_smooth,
                 w_effort: cfg.w_effort,
-                w_damping: cfg.w_damping,
+                w_damping: if couplings.is_empty() {
+                    cfg.w_damping
+                } else {
+                    [
+                        cfg.w_damping[0] + cfg.w_consistency[0],
+                        cfg.w_damping[1] + cfg.w_consistency[1],
+                    ]
+                },
                 couplings,
                 geometry: cfg.geometry.clone(),
                 margin: cfg.constraint_margin,

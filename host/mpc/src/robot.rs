@@ -226,7 +226,17 @@ impl RobotController {
             }
             Some(reason) => {
                 self.fallback_ticks += 1;
-                if self.fallback_ticks <= cfg.max_fallback_ticks && !self.held.is_empty() {
+                // With established couplings only inputs whose successor states were
+                // constrained (k ≤ H_c) may be replayed: fallback tick t plays u_t → x_{t+1}.
+                let limit = if inst.couplings.is_empty() {
+                    cfg.max_fallback_ticks
+                } else {
+                    cfg.max_fallback_ticks.min(
+                        u32::try_from(inst.constraint_horizon.saturating_sub(1))
+                            .unwrap_or(u32::MAX),
+                    )
+                };
+                if self.fallback_ticks <= limit && !self.held.is_empty() {
                     let mut plan = std::mem::take(&mut self.held);
                     self.held = plan.iter().skip(1).copied().collect();
                     plan.resize(inst.horizon, Command::STOP);

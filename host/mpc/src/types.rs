@@ -102,7 +102,9 @@ pub struct Limits {
 }
 
 impl Limits {
-    /// Limits from the shared drive calibration (butterfly only, box at its extent).
+    /// Limits from the shared drive calibration: butterfly, box at its extent, no
+    /// acceleration box (THESIS 5.19–5.24 rely on the smoothness cost; set
+    /// [`Limits::accel_max`] to add the 4.12 box).
     pub fn from_drive(d: &Drive) -> Self {
         let a = [f64::from(d.butterfly_a[0]), f64::from(d.butterfly_a[1])];
         let b = [f64::from(d.butterfly_b[0]), f64::from(d.butterfly_b[1])];
@@ -111,7 +113,7 @@ impl Limits {
             butterfly_b: b,
             v_max: b[0],
             omega_max: a[1].abs(),
-            accel_max: Some([1.0, 20.0]),
+            accel_max: None,
         }
     }
 
@@ -322,7 +324,7 @@ impl Default for SolverTuning {
     fn default() -> Self {
         SolverTuning {
             max_iter: 50,
-            tol_gap: 1e-7,
+            tol_gap: 1e-5,
             tol_feas: 1e-7,
             reuse_factorisation: true,
             refinement_max_iter: 3,
@@ -347,6 +349,12 @@ pub struct MpcConfig {
     pub w_effort: [f64; 2],
     /// Levenberg damping on ‖u − ū‖² around the linearisation point (keeps RTI steps short).
     pub w_damping: [f64; 2],
+    /// Extra damping on ‖u − ū‖² for robots with established pairs: ū is the plan their
+    /// neighbours were told (the predicted trajectory), so this keeps plans consistent
+    /// between ticks and the neighbours' coupling constraints trustworthy (DMPC
+    /// compatibility). Measured: 100/1 keeps coupled pairs inside their constraints in
+    /// fast turns; 1/0.01 does not.
+    pub w_consistency: [f64; 2],
     /// Soft maintenance weight W_c of established pairs (THESIS 4.8) on stages 1 … H_c.
     pub w_maintain: f64,
     /// Heading weight of the maintenance cost relative to its position term.
@@ -356,7 +364,8 @@ pub struct MpcConfig {
     pub constraint_margin: f64,
     /// Number of sequential QPs per tick (1 = real-time iteration).
     pub sqp_iterations: usize,
-    /// Ticks a failed robot keeps executing its last feasible plan before it stops.
+    /// Ticks a failed robot keeps executing its last feasible plan before it stops; with
+    /// established couplings at most H_c − 1 (only constrained steps are replayed).
     pub max_fallback_ticks: u32,
     /// Neighbour model.
     pub neighbours: NeighbourModel,
@@ -375,6 +384,7 @@ impl Default for MpcConfig {
             w_smooth: [10.0, 0.05],
             w_effort: [1e-3, 1e-4],
             w_damping: [1e-2, 1e-4],
+            w_consistency: [100.0, 1.0],
             w_maintain: 1.0e3,
             maintain_heading: 1e-4,
             constraint_margin: 1.0e-3,
@@ -411,6 +421,9 @@ impl MpcConfig {
         }
         if !self.w_effort.iter().all(|&v| nonneg(v)) {
             return bad("w_effort", "must be finite and ≥ 0");
+        }
+        if !self.w_consistency.iter().all(|&v| nonneg(v)) {
+            return bad("w_consistency", "must be finite and ≥ 0");
         }
         if !self.w_damping.iter().all(|&v| nonneg(v)) {
             return bad("w_damping", "must be finite and ≥ 0");

@@ -161,3 +161,49 @@ fn go_to_goal_and_velocity_fitting_behave() {
         "{last:?}"
     );
 }
+
+/// THESIS 4.12's acceleration box (optional): every handed-out command and every plan
+/// respects |Δv| ≤ a_v·dt, |Δω| ≤ a_ω·dt against the previous command.
+#[test]
+fn acceleration_box_is_respected() {
+    let mut limits = nonpilot();
+    limits.accel_max = Some([0.2, 3.0]);
+    let dt = MpcConfig::default().dt;
+    let mut mpc = DistributedMpc::with_threads(MpcConfig::default(), 1).unwrap();
+    let mut pose = Pose::new(0.0, 0.0, 0.0);
+    let mut prev = Command::STOP;
+    let mut max_dv: f64 = 0.0;
+    for _ in 0..60 {
+        let r = RobotInput {
+            id: 1,
+            pose,
+            limits,
+            costs: vec![CostTerm::GoToGoal {
+                goal: [-0.1, 0.15],
+                point: [0.0, 0.0],
+                weights: StageWeights::default(),
+            }],
+        };
+        let o = mpc.tick(&[r], &[]).unwrap().robots.remove(0);
+        assert!(o.status.is_solved(), "{:?}", o.status);
+        let mut p = prev;
+        for u in &o.plan {
+            assert!(
+                (u.v - p.v).abs() <= 0.2 * dt + 1e-6,
+                "Δv {} > {}",
+                (u.v - p.v).abs(),
+                0.2 * dt
+            );
+            assert!((u.omega - p.omega).abs() <= 3.0 * dt + 1e-6);
+            p = *u;
+        }
+        max_dv = max_dv.max((o.command.v - prev.v).abs());
+        prev = o.command;
+        pose = pose.step(o.command, dt);
+    }
+    assert!(
+        max_dv > 0.9 * 0.2 * dt,
+        "the box was active at least once ({max_dv})"
+    );
+    assert!((pose.x + 0.1).hypot(pose.y - 0.15) < 0.02, "{pose:?}");
+}

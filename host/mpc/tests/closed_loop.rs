@@ -126,7 +126,7 @@ fn alignment_from_25_start_poses() {
 /// Two coupled robots (anchor robot in front) turn on an arc and then translate: the
 /// leader follows a trajectory (5.26), the other follows it (5.25); the polygon and
 /// cutting-plane constraints must hold at every step on the true poses.
-fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
+fn coupled_run(neighbours: NeighbourModel, must_track: bool, r: f64, v: f64) -> f64 {
     let cfg = MpcConfig {
         neighbours,
         ..MpcConfig::default()
@@ -141,8 +141,7 @@ fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
         opening_robot: 2,
     }];
     assert!(coupling_violation(&g, &front, &back) < 0.0);
-    // Reference: 12 s on an arc of radius 0.6 m at 0.04 m/s, then 8 s straight.
-    let (r, v) = (0.6, 0.04);
+    // Reference: 12 s on an arc of radius r at speed v, then 8 s straight.
     let reference = |t: f64| -> Pose {
         let t_arc = 12.0;
         if t <= t_arc {
@@ -198,6 +197,16 @@ fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
             }
             assert!(limits().contains(o.command, OUTPUT_TOLERANCE));
         }
+        if std::env::var("MPC_TRACE").is_ok() {
+            eprintln!(
+                "{step} {:?} {:?} {:?} {:?} viol {:.4}",
+                out.robots[0].command,
+                out.robots[0].status,
+                out.robots[1].command,
+                out.robots[1].status,
+                coupling_violation(&g, &front, &back)
+            );
+        }
         front = simulate(front, out.robots[0].command, 0.1);
         back = simulate(back, out.robots[1].command, 0.1);
         let viol = coupling_violation(&g, &front, &back);
@@ -208,6 +217,7 @@ fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
         worst = worst.max(viol);
     }
     let end = reference(20.0);
+    let _ = (r, v);
     eprintln!("{neighbours:?}: front ended at {front:?}, reference {end:?}");
     if !must_track {
         return worst;
@@ -228,7 +238,7 @@ fn coupled_run(neighbours: NeighbourModel, must_track: bool) -> f64 {
 
 #[test]
 fn coupled_pair_turns_and_translates_predicted_neighbours() {
-    let worst = coupled_run(NeighbourModel::Predicted, true);
+    let worst = coupled_run(NeighbourModel::Predicted, true, 0.6, 0.04);
     eprintln!("predicted: worst constraint value {worst:.5} m");
 }
 
@@ -236,7 +246,7 @@ fn coupled_pair_turns_and_translates_predicted_neighbours() {
 /// lags the reference, and solves may fail and fall back: that is the comparison).
 #[test]
 fn coupled_pair_turns_and_translates_frozen_neighbours() {
-    let worst = coupled_run(NeighbourModel::Frozen, false);
+    let worst = coupled_run(NeighbourModel::Frozen, false, 0.6, 0.04);
     eprintln!("frozen: worst constraint value {worst:.5} m");
 }
 
@@ -246,7 +256,11 @@ fn coupled_pair_turns_and_translates_frozen_neighbours() {
 #[test]
 fn infeasible_problem_falls_back_then_stops() {
     let cfg = MpcConfig::default();
-    let max_fb = cfg.max_fallback_ticks;
+    // With a coupling, only steps inside the constraint horizon are replayed.
+    let max_fb = cfg
+        .max_fallback_ticks
+        .min(cfg.constraint_horizon as u32 - 1);
+    assert!(max_fb >= 1);
     let mut mpc = DistributedMpc::with_threads(cfg, 1).unwrap();
     let pairs = [CoupledPair {
         anchor_robot: 1,
@@ -310,4 +324,18 @@ fn infeasible_problem_falls_back_then_stops() {
         "{:?}",
         out.robots[1].status
     );
+}
+
+/// A tighter, faster turn (radius 0.45 m at 0.06 m/s) with predicted neighbours.
+#[test]
+fn coupled_pair_tighter_faster_turn() {
+    let worst = coupled_run(NeighbourModel::Predicted, true, 0.45, 0.06);
+    eprintln!("tight turn: worst constraint value {worst:.5} m");
+}
+
+/// The same tight turn with frozen neighbours: constraints must hold (tracking may lag).
+#[test]
+fn coupled_pair_tighter_faster_turn_frozen() {
+    let worst = coupled_run(NeighbourModel::Frozen, false, 0.45, 0.06);
+    eprintln!("tight turn, frozen: worst constraint value {worst:.5} m");
 }
