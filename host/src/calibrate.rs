@@ -449,7 +449,10 @@ pub fn apply(base: &RobotParams, fit: &Fit) -> RobotParams {
 
 /// Write the robot's parameter file (loadable by `RobotParams::from_file`).
 pub fn write_params(path: &Path, params: &RobotParams, cal: &Calibration) -> anyhow::Result<()> {
-    let body = toml::to_string_pretty(params)?;
+    // The set is f32; print each number as its shortest f32 decimal (0.05, not 0.0500000007).
+    let mut value = toml::Value::try_from(params)?;
+    shorten_floats(&mut value);
+    let body = toml::to_string_pretty(&value)?;
     let header = format!(
         "# Robot {} calibrated by `puzzlebot calibrate` (THESIS 3.5.1), command space: {} ({}).\n\
          # drive.k_v, drive.k_omega, drive.min_rpm and drive.max_rpm are in these units.\n",
@@ -462,6 +465,19 @@ pub fn write_params(path: &Path, params: &RobotParams, cal: &Calibration) -> any
     );
     std::fs::write(path, header + &body)?;
     Ok(())
+}
+
+fn shorten_floats(v: &mut toml::Value) {
+    match v {
+        toml::Value::Float(x) => {
+            if let Ok(short) = format!("{}", *x as f32).parse::<f64>() {
+                *x = short;
+            }
+        }
+        toml::Value::Array(a) => a.iter_mut().for_each(shorten_floats),
+        toml::Value::Table(t) => t.iter_mut().for_each(|(_, v)| shorten_floats(v)),
+        _ => {}
+    }
 }
 
 /// Plot measured v and ω against the fitted lines of THESIS (3.10) and the butterfly.
@@ -502,8 +518,14 @@ pub fn plot_fit(path: &Path, cal: &Calibration) -> Result<(), String> {
             .map(|m| Circle::new(((m.m_r + m.m_l) / 2.0, m.v), 4, BLUE.filled())),
     )
     .map_err(|x| e(&x))?;
+    // Keep the fitted lines inside the chart (plotters does not clip line ends).
+    let xv = if f.k_v.abs() > 0.0 {
+        fs.min(vmax / f.k_v.abs())
+    } else {
+        fs
+    };
     c.draw_series(LineSeries::new(
-        [(-fs, -f.k_v * fs), (fs, f.k_v * fs)],
+        [(-xv, -f.k_v * xv), (xv, f.k_v * xv)],
         RED.stroke_width(2),
     ))
     .map_err(|x| e(&x))?;
@@ -537,8 +559,13 @@ pub fn plot_fit(path: &Path, cal: &Calibration) -> Result<(), String> {
             .map(|m| Circle::new((m.m_r - m.m_l, m.omega), 4, BLUE.filled())),
     )
     .map_err(|x| e(&x))?;
+    let xw = if f.k_omega.abs() > 0.0 {
+        dmax.min(wmax / f.k_omega.abs())
+    } else {
+        dmax
+    };
     c.draw_series(LineSeries::new(
-        [(-dmax, -f.k_omega * dmax), (dmax, f.k_omega * dmax)],
+        [(-xw, -f.k_omega * xw), (xw, f.k_omega * xw)],
         RED.stroke_width(2),
     ))
     .map_err(|x| e(&x))?;

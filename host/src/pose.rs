@@ -355,6 +355,40 @@ mod tests {
         assert!(input.table.fresh(4, ms(10)).is_none(), "stale");
     }
 
+    #[tokio::test]
+    async fn natnet_stream_over_loopback_fills_the_table() {
+        let input = PoseInput::start(
+            "127.0.0.1:0".parse().expect("addr"),
+            NatNetDecoder::new("4.1", UpAxis::Z).expect("version"),
+            Instant::now(),
+        )
+        .await
+        .expect("bind");
+        let server = natnet::SyntheticServer::new(natnet::Version::V4_1, 1_000_000);
+        let tx = UdpSocket::bind("127.0.0.1:0").await.expect("bind");
+        let wire = server
+            .datagram(
+                1,
+                0.01,
+                &[natnet::PlannedBody::tracked(
+                    7,
+                    [0.1, 0.2, 0.0],
+                    [0.0, 0.0, 0.0, 1.0],
+                )],
+            )
+            .expect("encode");
+        tx.send_to(&wire, input.local_addr()).await.expect("send");
+        let ms = std::time::Duration::from_millis;
+        for _ in 0..200 {
+            if input.table.latest(7).is_some() {
+                break;
+            }
+            tokio::time::sleep(ms(2)).await;
+        }
+        let p = input.table.fresh(7, ms(500)).expect("pose from NatNet");
+        assert!((p.x - 0.1).abs() < 1e-6 && (p.y - 0.2).abs() < 1e-6 && p.theta.abs() < 1e-6);
+    }
+
     #[test]
     fn natnet_synthetic_frames_decode_to_planar_poses() {
         let server = natnet::SyntheticServer::new(natnet::Version::V4_1, 1_000_000);
