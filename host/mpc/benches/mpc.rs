@@ -5,7 +5,7 @@
 //! and 2 coupling constraints, and of one tick per fleet size, with time per robot.
 //! `MPC_BENCH_THREADS` sets the pool size of the tick benchmarks (default 2).
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion};
 use puzzlebot_mpc::scenario::coupled_lines;
 use puzzlebot_mpc::*;
 use std::hint::black_box;
@@ -127,10 +127,11 @@ fn bench_robot(c: &mut Criterion) {
         let inst = robot_instance(k, &cfg);
         let mut ctl = RobotController::new();
         g.bench_with_input(BenchmarkId::new("couplings", k), &inst, |b, inst| {
-            b.iter(|| {
-                let mut x = inst.clone();
-                black_box(ctl.step(&cfg, &mut x, 0))
-            })
+            b.iter_batched(
+                || inst.clone(),
+                |mut x| black_box(ctl.step(&cfg, &mut x, 0)),
+                BatchSize::SmallInput,
+            )
         });
     }
     g.finish();
