@@ -44,7 +44,7 @@ pub enum PairKind {
 }
 
 /// An established pair (indices into `robots`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pair {
     /// Robot carrying the anchor head / the knob.
     pub a: usize,
@@ -52,6 +52,11 @@ pub struct Pair {
     pub b: usize,
     /// Anchor or knob.
     pub kind: PairKind,
+    /// Connection point in robot `a`'s body frame (m); default the anchor head
+    /// (`geometry.anchor_head`) or the knob centre (`geometry.knob_left`). Use it for the two
+    /// side points at x = ±`geometry.side_point_x`.
+    #[serde(default)]
+    pub point: Option<[f64; 2]>,
 }
 
 /// Fleet state of one assembly.
@@ -216,6 +221,11 @@ fn check(a: &PuzzleAssembly) -> Result<(), AdapterError> {
         if p.a >= a.robots.len() || p.b >= a.robots.len() || p.a == p.b {
             return Err(AdapterError::BadPair(k));
         }
+        if p.point
+            .is_some_and(|q| !(q[0].is_finite() && q[1].is_finite()))
+        {
+            return Err(AdapterError::BadNumber("pairs[].point"));
+        }
     }
     Ok(())
 }
@@ -303,7 +313,7 @@ pub fn build_model(
             PairKind::Anchor => (ga.anchor_head, "anchor"),
             PairKind::Knob => (ga.knob_left, "knob"),
         };
-        let w = world(&moved, [body[0] as f64, body[1] as f64]);
+        let w = world(&moved, p.point.unwrap_or([body[0] as f64, body[1] as f64]));
         let rb = &a.robots[p.b];
         let zc = level + params.robot(rb.kind).geometry.com_height as f64;
         let point: Vec3 = [w[0], w[1], zc];

@@ -62,11 +62,13 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
                 a: 0,
                 b: 1,
                 kind: PairKind::Knob,
+                point: None,
             },
             Pair {
                 a: 1,
                 b: 2,
                 kind: PairKind::Knob,
+                point: None,
             },
         ],
     };
@@ -93,21 +95,25 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
                 a: 0,
                 b: 1,
                 kind: PairKind::Knob,
+                point: None,
             },
             Pair {
                 a: 2,
                 b: 3,
                 kind: PairKind::Knob,
+                point: None,
             },
             Pair {
                 a: 0,
                 b: 2,
                 kind: PairKind::Anchor,
+                point: None,
             },
             Pair {
                 a: 1,
                 b: 3,
                 kind: PairKind::Anchor,
+                point: None,
             },
         ],
     };
@@ -135,6 +141,7 @@ fn flat_floor_reaches_the_horizon_and_a_step_up_blocks() {
             a: 0,
             b: 1,
             kind: PairKind::Knob,
+            point: None,
         }],
     };
     let adv = max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.05).unwrap();
@@ -161,6 +168,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
             a: i,
             b: i + 1,
             kind: PairKind::Anchor,
+            point: None,
         })
         .collect();
     let a = PuzzleAssembly { robots, pairs };
@@ -202,10 +210,32 @@ fn bad_pairs_are_rejected() {
             a: 0,
             b: 3,
             kind: PairKind::Knob,
+            point: None,
         }],
     };
     assert_eq!(
         max_safe_advance(&a, &p, &Terrain::flat(), 0.0, 0.01).unwrap_err(),
         AdapterError::BadPair(0)
     );
+}
+
+#[test]
+fn offset_rows_joined_at_side_points_stand_stable() {
+    // Rows offset by half a body: r0's front-left knob sits in r1's back-right hole.
+    let p = params();
+    let sx = p.non_pilot.geometry.side_point_x as f64;
+    let a = PuzzleAssembly {
+        robots: vec![np(0.0, 0.0), np(0.025, 0.05)],
+        pairs: vec![Pair {
+            a: 0,
+            b: 1,
+            kind: PairKind::Knob,
+            point: Some([sx, 0.025]),
+        }],
+    };
+    let m = build_model(&a, &p, &Terrain::flat(), 0.0, [0.0, 0.0], false).unwrap();
+    assert!((m.connections[0].point[0] - sx).abs() < 1e-12);
+    let r = evaluate(&m).unwrap();
+    assert_eq!(r.verdict, Verdict::Stable);
+    assert!(r.margin.unwrap() > 0.0);
 }
