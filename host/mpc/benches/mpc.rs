@@ -49,8 +49,26 @@ fn threads() -> usize {
 }
 
 fn report_percentiles() {
-    let cfg = MpcConfig::default();
-    for (c, accel) in [(0, false), (1, false), (2, false), (2, true)] {
+    let base = MpcConfig::default();
+    let sparse_cfg = MpcConfig {
+        condensed: false,
+        ..base.clone()
+    };
+    let no_reuse = {
+        let mut c = base.clone();
+        c.solver.reuse_factorisation = false;
+        c
+    };
+    let variants: [(usize, bool, &MpcConfig, &str); 6] = [
+        (0, false, &base, ""),
+        (1, false, &base, ""),
+        (2, false, &base, ""),
+        (2, true, &base, " +accel box"),
+        (2, false, &sparse_cfg, " sparse (not condensed)"),
+        (2, false, &no_reuse, " new solver every solve"),
+    ];
+    for (c, accel, cfg, label) in variants {
+        let cfg = cfg.clone();
         let mut inst = robot_instance(c, &cfg);
         if accel {
             // THESIS 4.12's optional acceleration box: +4 rows per step.
@@ -80,7 +98,7 @@ fn report_percentiles() {
         let (cmed, cp99) = percentiles(cpu);
         println!(
             "robot-solve couplings={c}{}: wall median {:.1} µs, p99 {:.1} µs | thread-CPU median {:.1} µs, p99 {:.1} µs ({} rows/coupling-step, {iters} IPM iterations)",
-            if accel { " +accel box" } else { "" },
+            label,
             med.as_secs_f64() * 1e6,
             p99.as_secs_f64() * 1e6,
             cmed.as_secs_f64() * 1e6,
@@ -88,6 +106,7 @@ fn report_percentiles() {
             cfg.geometry.anchor_polygon.len() + 4
         );
     }
+    let cfg = base;
     let th = threads();
     for &n in &[2usize, 8, 32, 100, 300] {
         let (robots, pairs) = coupled_lines(n, 4, cfg.horizon, cfg.dt);

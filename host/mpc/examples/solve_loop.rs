@@ -11,6 +11,7 @@ fn main() {
     cfg.solver.refinement_max_iter = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(10);
     cfg.solver.refinement_reltol = a.get(4).and_then(|s| s.parse().ok()).unwrap_or(1e-13);
     cfg.solver.reuse_factorisation = a.get(5).map(|s| s != "0").unwrap_or(true);
+    cfg.condensed = std::env::var("MPC_SPARSE").is_err();
     cfg.solver.tol_gap = tol;
     cfg.solver.tol_feas = a.get(6).and_then(|s| s.parse().ok()).unwrap_or(tol);
     let (mut robots, pairs) = coupled_lines(3, 3, cfg.horizon, cfg.dt);

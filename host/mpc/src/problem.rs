@@ -272,6 +272,10 @@ pub(crate) struct DenseQp {
     pub m: usize,
     /// n × n, symmetric (full storage).
     pub p: Vec<f64>,
+    /// n × n structural pattern of P (symmetric).
+    pub p_mask: Vec<bool>,
+    /// Leading rows of A that are equalities (zero cone).
+    pub n_eq: usize,
     pub q: Vec<f64>,
     /// m × n row-major.
     pub a: Vec<f64>,
@@ -286,6 +290,9 @@ impl DenseQp {
         self.m = 0;
         self.p.clear();
         self.p.resize(n * n, 0.0);
+        self.p_mask.clear();
+        self.p_mask.resize(n * n, false);
+        self.n_eq = 0;
         self.q.clear();
         self.q.resize(n, 0.0);
         self.a.clear();
@@ -304,6 +311,33 @@ impl DenseQp {
     fn set(&mut self, r: usize, c: usize, v: f64) {
         self.a[r * self.n + c] = v;
         self.mask[r * self.n + c] = true;
+    }
+
+    /// Adds `v` to P\[i, j\] and P\[j, i\] (once when i = j) and marks the pattern.
+    fn add_p(&mut self, i: usize, j: usize, v: f64) {
+        let n = self.n;
+        self.p[i * n + j] += v;
+        self.p_mask[i * n + j] = true;
+        if i != j {
+            self.p[j * n + i] += v;
+            self.p_mask[j * n + i] = true;
+        }
+    }
+
+    /// Adds w (r0 + Σ g_i z_{idx_i})² to the cost (sparse gradient; pattern always marked).
+    fn add_sparse_residual(&mut self, w: f64, r0: f64, idx: &[usize], g: &[f64]) {
+        let n = self.n;
+        for (a, (&i, &gi)) in idx.iter().zip(g).enumerate() {
+            self.q[i] += 2.0 * w * r0 * gi;
+            for (&j, &gj) in idx[a..].iter().zip(&g[a..]) {
+                if i == j {
+                    self.p[i * n + i] += 2.0 * w * gi * gj;
+                    self.p_mask[i * n + i] = true;
+                } else {
+                    self.add_p(i, j, 2.0 * w * gi * gj);
+                }
+            }
+        }
     }
 
     /// Adds w (r0 + g·z)² to the cost (g dense over its first `len` entries).
@@ -333,17 +367,68 @@ pub(crate) struct Builder {
     sens: Vec<f64>,
     g: Vec<f64>,
     cons: Vec<StateConstraint>,
+    condensed: bool,
+    xbar: Vec<Pose>,
 }
 
 impl Builder {
     /// Linearises `inst` around `ubar` (length H) and fills `self.qp`; sets `inst.wings`.
-    pub fn build(&mut self, inst: &mut ProblemInstance, ubar: &[Command]) {
+    /// `condensed`: inputs only (states eliminated through the sensitivities); otherwise
+    /// states x_1 … x_H are variables too, tied by linearised dynamics equalities.
+    pub fn build(&mut self, inst: &mut ProblemInstance, ubar: &[Command], condensed: bool) {
         let h = inst.horizon;
-        let n = 2 * h;
+        let nu = 2 * h;
+        let n = if condensed { nu } else { nu + 3 * h };
         let dt = inst.dt;
+        self.condensed = condensed;
         self.qp.reset(n);
         let xs = inst.rollout(ubar);
-        let zbar: Vec<f64> = ubar.iter().flat_map(|u| [u.v, u.omega]).collect();
+        let mut zbar: Vec<f64> = ubar.iter().flat_map(|u| [u.v, u.omega]).collect();
+        if !condensed {
+            zbar.extend(xs[1..].iter().flat_map(|x| [x.x, x.y, x.theta]));
+        }
+        self.xbar = xs.clone();
+        if !condensed {
+            // Linearised dynamics (5.2) as equalities, first rows:
+            // x_{k+1} − A_k x_k − B_k u_k = x̄_{k+1} − A_k x̄_k − B_k ū_k.
+            for k in 0..h {
+                let (sn, cs) = xs[k].theta.sin_cos();
+                let v = ubar[k].v;
+                let nx = nu + 3 * k; // columns of x_{k+1}
+                let a = [
+                    [1.0, 0.0, -dt * v * sn],
+                    [0.0, 1.0, dt * v * cs],
+                    [0.0, 0.0, 1.0],
+                ];
+                let b = [[dt * cs, 0.0], [dt * sn, 0.0], [0.0, dt]];
+                let xk = [xs[k].x, xs[k].y, xs[k].theta];
+                let xk1 = [xs[k + 1].x, xs[k + 1].y, xs[k + 1].theta];
+                for r in 0..3 {
+                    let mut rhs = xk1[r];
+                    for c in 0..3 {
+                        rhs -= a[r][c] * xk[c];
+                    }
+                    rhs -= b[r][0] * ubar[k].v + b[r][1] * ubar[k].omega;
+                    if k == 0 {
+                        // x_0 is data: move A_0 x_0 to the right-hand side.
+                        for c in 0..3 {
+                            rhs += a[r][c] * xk[c];
+                        }
+                    }
+                    let row = self.qp.new_row(rhs);
+                    self.qp.set(row, nx + r, 1.0);
+                    if k > 0 {
+                        let px = nu + 3 * (k - 1);
+                        for c in 0..3 {
+                            self.qp.set(row, px + c, -a[r][c]);
+                        }
+                    }
+                    self.qp.set(row, 2 * k, -b[r][0]);
+                    self.qp.set(row, 2 * k + 1, -b[r][1]);
+                }
+            }
+            self.qp.n_eq = self.qp.m;
+        }
 
         // Sensitivities δx_k = S_k δz of the Euler dynamics (5.2) linearised along x̄.
         self.sens.clear();
@@ -416,11 +501,10 @@ impl Builder {
                     lin -= ws * prev;
                 } else {
                     let pc = col - 2;
-                    self.qp.p[pc * n + pc] += 2.0 * ws;
-                    self.qp.p[pc * n + col] -= 2.0 * ws;
-                    self.qp.p[col * n + pc] -= 2.0 * ws;
+                    self.qp.add_p(pc, pc, 2.0 * ws);
+                    self.qp.add_p(pc, col, -2.0 * ws);
                 }
-                self.qp.p[col * n + col] += 2.0 * diag;
+                self.qp.add_p(col, col, 2.0 * diag);
                 self.qp.q[col] += 2.0 * lin;
             }
         }
@@ -513,6 +597,16 @@ impl Builder {
         let mut cons = std::mem::take(&mut self.cons);
         inst.coupling_constraints(&xs, &mut cons);
         for c in &cons {
+            if !condensed {
+                let base = nu + 3 * (c.k - 1);
+                let xk = [xs[c.k].x, xs[c.k].y, xs[c.k].theta];
+                let rhs = -c.value + (0..3).map(|i| c.grad[i] * xk[i]).sum::<f64>();
+                let r = self.qp.new_row(rhs);
+                for i in 0..3 {
+                    self.qp.set(r, base + i, c.grad[i]);
+                }
+                continue;
+            }
             let len = 2 * c.k;
             self.row_gradient(c.k, c.grad);
             let rhs = -c.value
@@ -528,6 +622,10 @@ impl Builder {
             }
         }
         self.cons = cons;
+        if condensed {
+            // Dense P: full pattern.
+            self.qp.p_mask.iter_mut().for_each(|m| *m = true);
+        }
     }
 
     /// g = jx · S_k over the first 2k columns.
@@ -546,6 +644,14 @@ impl Builder {
 
     /// Adds w (r̄ + jx·δx_k)² with δx_k = S_k (z − z̄).
     fn state_residual(&mut self, k: usize, w: f64, rbar: f64, jx: [f64; 3], zbar: &[f64]) {
+        if !self.condensed {
+            let base = 2 * (self.xbar.len() - 1) + 3 * (k - 1);
+            let x = &self.xbar[k];
+            let r0 = rbar - (jx[0] * x.x + jx[1] * x.y + jx[2] * x.theta);
+            self.qp
+                .add_sparse_residual(w, r0, &[base, base + 1, base + 2], &jx);
+            return;
+        }
         self.row_gradient(k, jx);
         let r0 = rbar - self.g.iter().zip(zbar).map(|(a, b)| a * b).sum::<f64>();
         let g = std::mem::take(&mut self.g);
@@ -606,7 +712,7 @@ mod tests {
         let mut inst = robot_instance(2, &cfg).unwrap();
         let ubar = inst.guess.clone();
         let mut b = Builder::default();
-        b.build(&mut inst, &ubar);
+        b.build(&mut inst, &ubar, true);
         let qp = &b.qp;
         let n = qp.n;
         let z: Vec<f64> = ubar.iter().flat_map(|u| [u.v, u.omega]).collect();
@@ -644,6 +750,36 @@ mod tests {
             let lhs: f64 = row.iter().zip(&z).map(|(a, b)| a * b).sum();
             // A z̄ − b = g(x̄).
             assert!((lhs - qp.b[first + r] - c.value).abs() < 1e-12);
+        }
+    }
+
+    /// The sparse (states as variables) and condensed QPs are the same problem.
+    #[test]
+    fn sparse_and_condensed_qps_agree() {
+        for c in 0..=2 {
+            let cfg = MpcConfig::default();
+            let inst = robot_instance(c, &cfg).unwrap();
+            let sparse = MpcConfig {
+                condensed: false,
+                ..cfg.clone()
+            };
+            let mut a = inst.clone();
+            let mut b = inst.clone();
+            let pa = crate::RobotController::new().step(&cfg, &mut a, 0);
+            let pb = crate::RobotController::new().step(&sparse, &mut b, 0);
+            assert!(
+                pa.status.is_solved() && pb.status.is_solved(),
+                "{:?} {:?}",
+                pa.status,
+                pb.status
+            );
+            assert_eq!(a.wings, b.wings);
+            for (x, y) in pa.plan.iter().zip(&pb.plan) {
+                assert!(
+                    (x.v - y.v).abs() < 1e-4 && (x.omega - y.omega).abs() < 1e-3,
+                    "{c}: {x:?} vs {y:?}"
+                );
+            }
         }
     }
 

@@ -6,6 +6,7 @@ use crate::types::*;
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, SupportedConeT,
+    ZeroConeT,
 };
 
 /// Tolerance of the output check against box and butterfly (m/s, rad/s).
@@ -16,34 +17,29 @@ struct CachedSolver {
     solver: DefaultSolver<f64>,
     a_colptr: Vec<usize>,
     a_rowval: Vec<usize>,
+    p_colptr: Vec<usize>,
+    p_rowval: Vec<usize>,
     n: usize,
+    n_eq: usize,
 }
 
-/// CSC of the upper triangle of the dense symmetric P (full pattern).
+/// CSC of the upper triangle of the symmetric P following its structural mask.
 fn p_upper(qp: &DenseQp) -> CscMatrix<f64> {
     let n = qp.n;
     let mut colptr = Vec::with_capacity(n + 1);
-    let mut rowval = Vec::with_capacity(n * (n + 1) / 2);
-    let mut nzval = Vec::with_capacity(n * (n + 1) / 2);
+    let mut rowval = Vec::new();
+    let mut nzval = Vec::new();
     colptr.push(0);
     for c in 0..n {
         for r in 0..=c {
-            rowval.push(r);
-            nzval.push(qp.p[r * n + c]);
+            if qp.p_mask[r * n + c] {
+                rowval.push(r);
+                nzval.push(qp.p[r * n + c]);
+            }
         }
         colptr.push(rowval.len());
     }
     CscMatrix::new(n, n, colptr, rowval, nzval)
-}
-
-fn p_upper_values(qp: &DenseQp, out: &mut Vec<f64>) {
-    let n = qp.n;
-    out.clear();
-    for c in 0..n {
-        for r in 0..=c {
-            out.push(qp.p[r * n + c]);
-        }
-    }
 }
 
 /// CSC of A following its structural mask.
@@ -93,7 +89,6 @@ pub struct RobotController {
     fallback_ticks: u32,
     solver: Option<CachedSolver>,
     builder: Builder,
-    p_vals: Vec<f64>,
 }
 
 impl std::fmt::Debug for RobotController {
@@ -127,21 +122,26 @@ impl RobotController {
         inst: &mut ProblemInstance,
         ubar: &[Command],
         tuning: &SolverTuning,
+        condensed: bool,
     ) -> Result<(Vec<Command>, u32), String> {
-        self.builder.build(inst, ubar);
+        self.builder.build(inst, ubar, condensed);
         let qp = &self.builder.qp;
         let a = a_csc(qp);
+        let p = p_upper(qp);
         let reuse = tuning.reuse_factorisation
-            && self
-                .solver
-                .as_ref()
-                .is_some_and(|s| s.n == qp.n && s.a_colptr == a.colptr && s.a_rowval == a.rowval);
+            && self.solver.as_ref().is_some_and(|s| {
+                s.n == qp.n
+                    && s.n_eq == qp.n_eq
+                    && s.a_colptr == a.colptr
+                    && s.a_rowval == a.rowval
+                    && s.p_colptr == p.colptr
+                    && s.p_rowval == p.rowval
+            });
         if reuse {
             let s = self.solver.as_mut().expect("checked above");
-            p_upper_values(qp, &mut self.p_vals);
             let upd = s
                 .solver
-                .update_P(&self.p_vals)
+                .update_P(&p.nzval)
                 .and_then(|_| s.solver.update_q(&qp.q))
                 .and_then(|_| s.solver.update_A(&a.nzval))
                 .and_then(|_| s.solver.update_b(&qp.b));
@@ -150,15 +150,21 @@ impl RobotController {
                 return Err(format!("solver data update failed: {e}"));
             }
         } else {
-            let p = p_upper(qp);
-            let cones: [SupportedConeT<f64>; 1] = [NonnegativeConeT(qp.m)];
+            let mut cones: Vec<SupportedConeT<f64>> = Vec::with_capacity(2);
+            if qp.n_eq > 0 {
+                cones.push(ZeroConeT(qp.n_eq));
+            }
+            cones.push(NonnegativeConeT(qp.m - qp.n_eq));
             let solver = DefaultSolver::new(&p, &qp.q, &a, &qp.b, &cones, settings(tuning))
                 .map_err(|e| format!("solver setup failed: {e}"))?;
             self.solver = Some(CachedSolver {
                 solver,
                 a_colptr: a.colptr.clone(),
                 a_rowval: a.rowval.clone(),
+                p_colptr: p.colptr.clone(),
+                p_rowval: p.rowval.clone(),
                 n: qp.n,
+                n_eq: qp.n_eq,
             });
         }
         let s = self.solver.as_mut().expect("set above");
@@ -168,11 +174,11 @@ impl RobotController {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {}
             other => return Err(format!("solver status {other:?}")),
         }
-        if sol.x.len() != 2 * inst.horizon || sol.x.iter().any(|v| !v.is_finite()) {
+        let nu = 2 * inst.horizon;
+        if sol.x.len() < nu || sol.x.iter().any(|v| !v.is_finite()) {
             return Err("solver returned a non-finite solution".into());
         }
-        let plan = sol
-            .x
+        let plan = sol.x[..nu]
             .chunks_exact(2)
             .map(|c| Command::new(c[0], c[1]))
             .collect();
@@ -191,7 +197,7 @@ impl RobotController {
         let mut iterations = 0;
         let mut failure = None;
         for _ in 0..cfg.sqp_iterations {
-            match self.solve_qp(inst, &ubar, &cfg.solver) {
+            match self.solve_qp(inst, &ubar, &cfg.solver, cfg.condensed) {
                 Ok((plan, it)) => {
                     iterations += it;
                     ubar = plan;

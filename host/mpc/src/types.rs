@@ -364,6 +364,9 @@ pub struct MpcConfig {
     pub constraint_margin: f64,
     /// Number of sequential QPs per tick (1 = real-time iteration).
     pub sqp_iterations: usize,
+    /// Condensed QP (inputs only, dense P; default) or sparse multiple-shooting QP
+    /// (states as variables, linearised dynamics as equalities). Same solution.
+    pub condensed: bool,
     /// Ticks a failed robot keeps executing its last feasible plan before it stops; with
     /// established couplings at most H_c − 1 (only constrained steps are replayed).
     pub max_fallback_ticks: u32,
@@ -389,6 +392,7 @@ impl Default for MpcConfig {
             maintain_heading: 1e-4,
             constraint_margin: 1.0e-3,
             sqp_iterations: 1,
+            condensed: true,
             max_fallback_ticks: 3,
             neighbours: NeighbourModel::Predicted,
             geometry: GeometryF64::from(&Geometry::default()),
