@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use puzzlebot_host::{app, assemble, calibrate, config::Fleet};
+use puzzlebot_host::{app, calibrate, config::Fleet};
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
 #[derive(Parser)]
@@ -90,40 +90,6 @@ enum Cmd {
         /// Parameter file to write (default: robot-<id>.toml in the run folder).
         #[arg(long)]
         out: Option<PathBuf>,
-    },
-    /// Stability gate (SOCP): verdict, margin, worst connections of an assembly file.
-    Gate {
-        /// Assembly file (JSON or TOML; see host/stability/README.md).
-        file: PathBuf,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
-        /// Write an SVG of the assembly coloured by connection load.
-        #[arg(long)]
-        picture: Option<PathBuf>,
-    },
-    /// Assembly shapes.
-    Shape {
-        #[command(subcommand)]
-        command: ShapeCmd,
-    },
-}
-
-#[derive(Subcommand)]
-enum ShapeCmd {
-    /// Slots, connection pairs, diagonal angle α and best heading (THESIS 5.2.4).
-    Info {
-        /// `line`, `mesh`, or a shape file (.toml or .json).
-        shape: String,
-        /// Number of robots (line and mesh).
-        #[arg(long, default_value_t = 4)]
-        robots: usize,
-        /// Number of rows (mesh).
-        #[arg(long, default_value_t = 2)]
-        rows: usize,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
     },
 }
 
@@ -242,25 +208,6 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let report =
                 calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
             print!("{report}");
-        }
-        Cmd::Gate {
-            file,
-            json,
-            picture,
-        } => {
-            let out = puzzlebot_stability::gate_command(&file, json, picture.as_deref())?;
-            println!("{}", out.trim_end());
-        }
-        Cmd::Shape {
-            command:
-                ShapeCmd::Info {
-                    shape,
-                    robots,
-                    rows,
-                    json,
-                },
-        } => {
-            print!("{}", assemble::shape_info_text(&shape, robots, rows, json)?);
         }
     }
     Ok(())
