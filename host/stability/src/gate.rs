@@ -310,11 +310,16 @@ fn summarize(r: &Resolved, verdict: Verdict, state: Option<State>, stats: Stats)
 pub struct Options {
     /// Use the leaf-to-root statics fast path when the assembly is a determinate tree.
     pub fast_path: bool,
+    /// Interior-point iteration limit per cone program (reaching it gives "not proven").
+    pub max_iter: u32,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { fast_path: true }
+        Options {
+            fast_path: true,
+            max_iter: 100,
+        }
     }
 }
 
@@ -369,7 +374,7 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
         let tb = Instant::now();
         let p = socp::build(r, with_limits);
         stats.build_seconds += tb.elapsed().as_secs_f64();
-        let (out, info) = socp::solve(&p);
+        let (out, info) = socp::solve(&p, opt.max_iter);
         stats.solves += 1;
         stats.iterations += info.iterations;
         stats.solve_seconds += info.seconds;

@@ -496,10 +496,14 @@ pub fn settings() -> DefaultSettings<f64> {
 
 /// Solve the program. Only `Solved | AlmostSolved` give a state; only `PrimalInfeasible`
 /// certifies infeasibility; everything else is "no certificate" (DESIGN.md §10).
-pub fn solve(p: &Program) -> (Outcome, SolveInfo) {
+pub fn solve(p: &Program, max_iter: u32) -> (Outcome, SolveInfo) {
     let t = std::time::Instant::now();
     let pm = CscMatrix::zeros((p.n, p.n));
-    let mut solver = match DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, settings()) {
+    let settings = DefaultSettings {
+        max_iter,
+        ..settings()
+    };
+    let mut solver = match DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, settings) {
         Ok(s) => s,
         Err(e) => {
             return (

@@ -127,7 +127,14 @@ fn cantilever_root_moment_matches_statics_and_verdict_flips_at_predicted_k() {
         let shear = k as f64 * m * G;
         let moment = m * G * p * (k * k) as f64 / 2.0;
         for fast in [true, false] {
-            let r = evaluate_with(&a, Options { fast_path: fast }).unwrap();
+            let r = evaluate_with(
+                &a,
+                Options {
+                    fast_path: fast,
+                    ..Options::default()
+                },
+            )
+            .unwrap();
             assert_eq!(
                 r.stats.path,
                 if fast {
@@ -182,8 +189,22 @@ fn lorentz_connector_fast_path_agrees_with_cone_program() {
             mu: [0.3, 0.3, 0.01, 0.01, 0.005],
         },
     );
-    let fast = evaluate_with(&a, Options { fast_path: true }).unwrap();
-    let socp = evaluate_with(&a, Options { fast_path: false }).unwrap();
+    let fast = evaluate_with(
+        &a,
+        Options {
+            fast_path: true,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let socp = evaluate_with(
+        &a,
+        Options {
+            fast_path: false,
+            ..Options::default()
+        },
+    )
+    .unwrap();
     assert_eq!(fast.verdict, socp.verdict);
     // The λ1 term is 10⁴ times lighter than λ_max: non-critical connections are only as exact
     // as the solver's relative gap allows.
@@ -336,7 +357,14 @@ fn load_ramp_strength_grows_linearly_and_crosses_the_limit_where_statics_predict
             point: Some(tip),
             couple: [0.0; 3],
         }];
-        let r = evaluate_with(&a, Options { fast_path: false }).unwrap();
+        let r = evaluate_with(
+            &a,
+            Options {
+                fast_path: false,
+                ..Options::default()
+            },
+        )
+        .unwrap();
         let w = r.connections[0].wrench;
         let mo = (w[3] * w[3] + w[4] * w[4] + w[5] * w[5]).sqrt();
         assert!(close(mo, m0 + t * arm, 1e-5), "step {s}: {mo}");
@@ -376,4 +404,35 @@ fn floating_body_without_support_is_whole_body_unstable() {
     let r = evaluate(&a).unwrap();
     assert_eq!(r.verdict, Verdict::WholeBodyInstability);
     assert!(r.margin.is_none());
+}
+
+#[test]
+fn solver_trouble_is_not_proven_never_stable() {
+    // A stable assembly, but the solver is stopped after one iteration: no certificate.
+    let a = cantilever(3, 0.1, 0.05, 100.0, 1.0);
+    let opt = Options {
+        fast_path: false,
+        max_iter: 1,
+    };
+    let r = evaluate_with(&a, opt).unwrap();
+    assert!(
+        matches!(r.verdict, Verdict::NotProven { .. }),
+        "{:?}",
+        r.verdict
+    );
+    assert!(!r.verdict.is_stable());
+    assert!(r.margin.is_none());
+    // With the normal limit it is proven stable.
+    assert_eq!(
+        evaluate_with(
+            &a,
+            Options {
+                fast_path: false,
+                ..Options::default()
+            }
+        )
+        .unwrap()
+        .verdict,
+        Verdict::Stable
+    );
 }
