@@ -4,10 +4,12 @@
 #![warn(missing_docs)]
 
 pub mod app;
+pub mod assemble;
 pub mod calibrate;
 pub mod config;
 pub mod control;
 pub mod drive;
+pub mod experiment;
 pub mod link;
 pub mod pose;
 pub mod report;

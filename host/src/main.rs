@@ -5,7 +5,8 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use puzzlebot_host::{app, calibrate, config::Fleet};
+use puzzlebot_host::{app, assemble, calibrate, config::Fleet};
+use puzzlebot_assembly::Scenario as AsmScenario;
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
 #[derive(Parser)]
@@ -39,12 +40,36 @@ enum ModeArg {
 #[derive(Subcommand)]
 enum Cmd {
     /// In-process simulated fleet of 4 robots over loopback: lines and circles (default).
-    Demo,
-    /// Drive the robots of a fleet config through a behaviour (real or simulated robots).
-    Run {
-        /// Fleet config (TOML).
+    Demo {
+        /// The assembly demo instead: 6 scattered robots (2 pilots) form a 2-row mesh, move it
+        /// 0.5 m, dissolve it and disperse (host/assembly/data/scenarios/demo.toml).
         #[arg(long)]
-        fleet: PathBuf,
+        assembly: bool,
+    },
+    /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
+    /// run an assembly scenario file against a simulated fleet.
+    Run {
+        /// Assembly scenario file (TOML, host/assembly README); runs on a simulated fleet.
+        scenario: Option<PathBuf>,
+        /// Simulator scenario (robots, terrain, couplings) for an assembly scenario; default:
+        /// robots scattered at random (see --robots, --pilots, --seed).
+        #[arg(long)]
+        sim: Option<PathBuf>,
+        /// Robots of the default scattered fleet.
+        #[arg(long, default_value_t = 4)]
+        robots: usize,
+        /// Pilots among them (the lowest ids).
+        #[arg(long, default_value_t = 0)]
+        pilots: usize,
+        /// Seed of the scattered fleet.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Time limit of an assembly run (s).
+        #[arg(long, default_value_t = 300.0)]
+        limit: f64,
+        /// Fleet config (TOML).
+        #[arg(long, required_unless_present = "scenario")]
+        fleet: Option<PathBuf>,
         /// Behaviour each robot performs from its current pose.
         #[arg(long, value_enum, default_value = "line")]
         behaviour: BehaviourArg,
@@ -91,6 +116,58 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Experiments.
+    Experiment {
+        #[command(subcommand)]
+        command: ExperimentCmd,
+    },
+    /// Stability gate (SOCP): verdict, margin, worst connections of an assembly file.
+    Gate {
+        /// Assembly file (JSON or TOML; see host/stability/README.md).
+        file: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Write an SVG of the assembly coloured by connection load.
+        #[arg(long)]
+        picture: Option<PathBuf>,
+    },
+    /// Assembly shapes.
+    Shape {
+        #[command(subcommand)]
+        command: ShapeCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum ExperimentCmd {
+    /// THESIS 5.2.3: 25 start positions x runs of two robots coupling, in the lockstep simulator.
+    Coupling {
+        /// Runs per start position.
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum ShapeCmd {
+    /// Slots, connection pairs, diagonal angle α and best heading (THESIS 5.2.4).
+    Info {
+        /// `line`, `mesh`, or a shape file (.toml or .json).
+        shape: String,
+        /// Number of robots (line and mesh).
+        #[arg(long, default_value_t = 4)]
+        robots: usize,
+        /// Number of rows (mesh).
+        #[arg(long, default_value_t = 2)]
+        rows: usize,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -123,8 +200,60 @@ fn main() -> ExitCode {
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
     let runs = cli.runs_dir;
-    match cli.command.unwrap_or(Cmd::Demo) {
-        Cmd::Demo => {
+    match cli.command.unwrap_or(Cmd::Demo { assembly: false }) {
+        Cmd::Demo { assembly: true } => {
+            println!("puzzlebot demo --assembly: 6 simulated robots (2 pilots) over loopback form a 2-row mesh, move it 0.5 m, dissolve it and disperse");
+            let t0 = std::time::Instant::now();
+            let scenario = AsmScenario::from_toml_str(
+                std::path::Path::new("demo.toml"),
+                assemble::DEMO_SCENARIO,
+                &puzzlebot_params::FleetParams::default().non_pilot.geometry,
+            )?;
+            let report = assemble::run_scenario(
+                scenario,
+                assemble::scattered_fleet(6, 2, 7),
+                &runs,
+                400.0,
+                None,
+            )
+            .await?;
+            print!("{}", assemble::describe(&report));
+            println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+        }
+        Cmd::Run {
+            scenario: Some(path),
+            sim,
+            robots,
+            pilots,
+            seed,
+            limit,
+            ..
+        } => {
+            let params = puzzlebot_params::FleetParams::default();
+            let scenario = AsmScenario::from_file(&path, &params.non_pilot.geometry)?;
+            let sim = match sim {
+                Some(p) => Scenario::from_file(&p)?,
+                None => assemble::scattered_fleet(robots, pilots, seed),
+            };
+            let report = assemble::run_scenario(scenario, sim, &runs, limit, None).await?;
+            print!("{}", assemble::describe(&report));
+        }
+        Cmd::Experiment {
+            command: ExperimentCmd::Coupling { runs: n, json },
+        } => {
+            let t0 = std::time::Instant::now();
+            let stats = tokio::task::spawn_blocking(move || {
+                puzzlebot_host::experiment::coupling_command(n, &runs)
+            })
+            .await??;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&stats)?);
+            } else {
+                print!("{}", puzzlebot_host::experiment::describe(&stats));
+                println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+            }
+        }
+        Cmd::Demo { assembly: false } => {
             println!("puzzlebot demo: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
             let t0 = std::time::Instant::now();
             let report = app::demo(&runs, true).await?;
@@ -137,7 +266,11 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             size,
             speed,
             wait,
+            ..
         } => {
+            let Some(fleet) = fleet else {
+                anyhow::bail!("`run` needs --fleet FILE or an assembly SCENARIO file");
+            };
             let fleet = Fleet::load(&fleet)?;
             let b = match behaviour {
                 BehaviourArg::Line => app::Behaviour::Line { length: size },
@@ -208,6 +341,25 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let report =
                 calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
             print!("{report}");
+        }
+        Cmd::Gate {
+            file,
+            json,
+            picture,
+        } => {
+            let out = puzzlebot_stability::gate_command(&file, json, picture.as_deref())?;
+            println!("{}", out.trim_end());
+        }
+        Cmd::Shape {
+            command:
+                ShapeCmd::Info {
+                    shape,
+                    robots,
+                    rows,
+                    json,
+                },
+        } => {
+            print!("{}", assemble::shape_info_text(&shape, robots, rows, json)?);
         }
     }
     Ok(())

@@ -1,0 +1,648 @@
+//! The assembly controller: the assembly [`Coordinator`] (through a [`ScenarioRunner`])
+//! assigns each robot a task every 10 Hz tick, each task becomes cost terms of that robot's
+//! MPC problem ([`DistributedMpc`], THESIS Algorithm 9, 5.19–5.26), and coupled pairs become
+//! the MPC's coupling constraints. Over terrain, the stability gate bounds every coupled
+//! assembly's advance along its heading ([`puzzlebot_stability::max_safe_advance`], SOCP
+//! paper §4, DESIGN.md §7): the host never commands an assembly past the safe distance; it
+//! stops the assembly and records why.
+//!
+//! Also: `puzzlebot run SCENARIO.toml` ([`run_scenario`]) and `puzzlebot shape info`.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use puzzlebot_assembly::{
+    shape_info, Coordinator, Event, MaintainPair, Mode, PairType, Pose2, Role, RobotState,
+    RunState, Scenario as AsmScenario, ScenarioRunner, Shape,
+};
+use puzzlebot_mpc::{
+    Command, ConnectionPoint, CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose,
+    RobotInput, StageWeights,
+};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::messages::RobotId;
+use puzzlebot_stability::puzzlebot::{Pair, PairKind, PuzzleAssembly, RobotPose};
+use puzzlebot_stability::{max_safe_advance, LimitedBy};
+use serde::Serialize;
+
+use crate::control::{Controller, FleetView, RunSummary};
+use crate::drive::Twist;
+use crate::report::RunFolder;
+use crate::simulated::SimHarness;
+
+/// `puzzlebot shape info`: the text (or JSON) of [`shape_info`] for `line`, `mesh` or a file.
+pub fn shape_info_text(shape: &str, robots: usize, rows: usize, json: bool) -> anyhow::Result<String> {
+    let g = FleetParams::default().non_pilot.geometry;
+    let s = match shape {
+        "line" => Shape::line(robots, &g)?,
+        "mesh" => Shape::mesh(robots, rows, &g)?,
+        file => Shape::from_file(Path::new(file), &g)?,
+    };
+    let info = shape_info(&s, &g);
+    Ok(if json {
+        format!("{}\n", serde_json::to_string_pretty(&info)?)
+    } else {
+        info.to_string()
+    })
+}
+
+/// One stop (or limit) decided by the stability gate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GateStop {
+    /// Controller time (s since start).
+    pub t: f64,
+    /// Robots of the assembly.
+    pub robots: Vec<RobotId>,
+    /// Heading of the requested advance (rad).
+    pub heading: f64,
+    /// Safe advance left along it (m).
+    pub safe_advance: f64,
+    /// What limits it.
+    pub limited_by: LimitedBy,
+    /// Centre of the assembly when it was stopped (m).
+    pub centre: [f64; 2],
+}
+
+/// Gate settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GateConfig {
+    /// Terrain the assembly moves over (no platforms: endless floor, gate idle).
+    pub terrain: Terrain,
+    /// Scan step of the contact-state search (m).
+    pub step: f64,
+    /// Distance kept back from the safe limit (m): covers latency (about two control
+    /// periods at cruise speed) and pose noise.
+    pub margin: f64,
+}
+
+impl Default for GateConfig {
+    fn default() -> Self {
+        GateConfig {
+            terrain: Terrain::flat(),
+            step: 0.005,
+            margin: 0.004,
+        }
+    }
+}
+
+/// Assembly scenario → tasks → distributed MPC → (v, ω), with the stability gate.
+pub struct AssemblyController {
+    runner: ScenarioRunner,
+    mpc: DistributedMpc,
+    params: FleetParams,
+    gate: GateConfig,
+    t0: Option<f64>,
+    last_t: f64,
+    /// Every coordinator event (pair status changes, steps), in order.
+    pub events: Vec<Event>,
+    /// Every gate stop (one per change of the stop state of an assembly).
+    pub gate_stops: Vec<GateStop>,
+    gated: BTreeSet<Vec<RobotId>>,
+    /// MPC ticks whose solve failed for some robot (fallback/stop).
+    pub mpc_failures: u64,
+    /// Robots ever seen.
+    seen: BTreeSet<RobotId>,
+    /// Extra seconds after the scenario ends before [`Controller::done`].
+    pub settle: f64,
+    finished_at: Option<f64>,
+}
+
+impl AssemblyController {
+    /// A controller running `scenario` with the fleet parameters `params`.
+    pub fn new(scenario: AsmScenario, params: FleetParams, gate: GateConfig) -> anyhow::Result<Self> {
+        let coordinator = Coordinator::from_params(&params);
+        let cfg = MpcConfig {
+            geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),
+            ..MpcConfig::default()
+        };
+        let mpc = DistributedMpc::with_threads(cfg, 1)?;
+        Ok(AssemblyController {
+            runner: ScenarioRunner::new(scenario, coordinator),
+            mpc,
+            params,
+            gate,
+            t0: None,
+            last_t: 0.0,
+            events: Vec::new(),
+            gate_stops: Vec::new(),
+            gated: BTreeSet::new(),
+            mpc_failures: 0,
+            seen: BTreeSet::new(),
+            settle: 0.5,
+            finished_at: None,
+        })
+    }
+
+    /// The scenario runner (state, coordinator, pairs).
+    pub fn runner(&self) -> &ScenarioRunner {
+        &self.runner
+    }
+
+    /// Where the scenario stands.
+    pub fn state(&self) -> &RunState {
+        self.runner.state()
+    }
+
+    fn limits(&self, kind: RobotKind) -> Limits {
+        Limits::from_drive(&self.params.robot(kind).drive)
+    }
+
+    /// THESIS (4.5)–(4.7), (5.25), (5.26): a task's cost terms.
+    fn costs(role: &Role) -> Vec<CostTerm> {
+        let lead = StageWeights {
+            stage: 1.0e3,
+            terminal: 1.0e4,
+        };
+        let follow = StageWeights {
+            stage: 1.0e2,
+            terminal: 1.0e3,
+        };
+        let p = |q: &Pose2| Pose::new(q.x, q.y, q.yaw);
+        match role {
+            Role::Hold | Role::Wait => Vec::new(),
+            Role::Align {
+                partner,
+                own_point,
+                partner_point,
+                relative_yaw,
+                ..
+            } => vec![CostTerm::AlignPair {
+                partner: *partner,
+                own: ConnectionPoint {
+                    pos: *own_point,
+                    angle: 0.0,
+                },
+                partner_point: ConnectionPoint {
+                    pos: *partner_point,
+                    angle: *relative_yaw,
+                },
+                weights: lead,
+                heading: 1.0e-3,
+            }],
+            Role::Follow { leader, offset } => vec![CostTerm::FollowLeader {
+                leader: *leader,
+                offset: p(offset),
+                weights: follow,
+                heading: 1.0e-3,
+            }],
+            Role::Velocity { v, w } => vec![CostTerm::FitVelocity {
+                target: Command { v: *v, omega: *w },
+                w_v: 1.0e3,
+                w_omega: 1.0e2,
+            }],
+            Role::GoTo { goal, use_yaw } => {
+                if *use_yaw {
+                    vec![CostTerm::FollowTrajectory {
+                        reference: vec![p(goal)],
+                        weights: lead,
+                        heading: 1.0e-2,
+                    }]
+                } else {
+                    vec![CostTerm::GoToGoal {
+                        goal: [goal.x, goal.y],
+                        point: [0.0, 0.0],
+                        weights: lead,
+                    }]
+                }
+            }
+            Role::Track { reference } => vec![CostTerm::FollowTrajectory {
+                reference: reference.iter().map(p).collect(),
+                weights: lead,
+                heading: 1.0e-3,
+            }],
+        }
+    }
+
+    /// The stability gate (issue 8 item 4): for every coupled assembly that is commanded to
+    /// move, limit its advance along its heading to the proven-safe distance; stop it there.
+    fn gate(
+        &mut self,
+        t: f64,
+        states: &[RobotState],
+        maintain: &[MaintainPair],
+        segments: &BTreeMap<usize, Vec<RobotId>>,
+        out: &mut BTreeMap<RobotId, Twist>,
+    ) {
+        if self.gate.terrain.platforms.is_empty() {
+            return;
+        }
+        let dt = 1.0 / self.rate_hz();
+        let geometry = self.params.non_pilot.geometry;
+        for members in segments.values() {
+            let idx: BTreeMap<RobotId, usize> =
+                members.iter().enumerate().map(|(i, id)| (*id, i)).collect();
+            let robots: Vec<RobotPose> = members
+                .iter()
+                .filter_map(|id| states.iter().find(|s| s.id == *id))
+                .map(|s| RobotPose {
+                    kind: s.kind,
+                    x: s.pose.x,
+                    y: s.pose.y,
+                    yaw: s.pose.yaw,
+                })
+                .collect();
+            if robots.len() != members.len() {
+                continue;
+            }
+            let pairs: Vec<Pair> = maintain
+                .iter()
+                .filter_map(|m| {
+                    let (a, b) = (*idx.get(&m.a)?, *idx.get(&m.b)?);
+                    Some(match m.kind {
+                        PairType::AnchorOpening => Pair {
+                            a,
+                            b,
+                            kind: PairKind::Anchor,
+                            point: None,
+                        },
+                        PairType::KnobHole => Pair {
+                            a,
+                            b,
+                            kind: PairKind::Knob,
+                            point: Some(m.point_a.position(&geometry)),
+                        },
+                    })
+                })
+                .collect();
+            // Requested motion of the assembly: mean commanded speed along the mean heading.
+            let n = robots.len() as f64;
+            let (mut vx, mut vy) = (0.0, 0.0);
+            for (r, id) in robots.iter().zip(members) {
+                if let Some(tw) = out.get(id) {
+                    vx += tw.v * r.yaw.cos() / n;
+                    vy += tw.v * r.yaw.sin() / n;
+                }
+            }
+            let speed = vx.hypot(vy);
+            let key = members.clone();
+            if speed < 1e-4 {
+                continue;
+            }
+            let heading = vy.atan2(vx);
+            let asm = PuzzleAssembly {
+                robots: robots.clone(),
+                pairs,
+            };
+            let centre = [
+                robots.iter().map(|r| r.x).sum::<f64>() / n,
+                robots.iter().map(|r| r.y).sum::<f64>() / n,
+            ];
+            let (safe, why) =
+                match max_safe_advance(&asm, &self.params, &self.gate.terrain, heading, self.gate.step)
+                {
+                    Ok(a) => (a.distance, a.limited_by),
+                    Err(e) => (
+                        0.0,
+                        LimitedBy::NotProven {
+                            reason: e.to_string(),
+                        },
+                    ),
+                };
+            let room = safe - self.gate.margin;
+            // Never command past the limit: the advance over the next two control periods
+            // (latency) must stay inside the room left.
+            if room <= speed * 2.0 * dt {
+                for id in members {
+                    out.insert(*id, Twist::new(0.0, 0.0));
+                }
+                if self.gated.insert(key) {
+                    tracing::warn!(
+                        "stability gate: assembly {members:?} stopped, safe advance {safe:.4} m ({why:?})"
+                    );
+                    self.gate_stops.push(GateStop {
+                        t,
+                        robots: members.clone(),
+                        heading,
+                        safe_advance: safe,
+                        limited_by: why,
+                        centre,
+                    });
+                }
+            } else {
+                self.gated.remove(&key);
+            }
+        }
+    }
+}
+
+impl Controller for AssemblyController {
+    fn name(&self) -> &str {
+        "assembly"
+    }
+
+    fn rate_hz(&self) -> f64 {
+        1.0 / self.mpc.config().dt
+    }
+
+    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
+        let t0 = *self.t0.get_or_insert(view.t);
+        let t = view.t - t0;
+        self.last_t = t;
+        let states: Vec<RobotState> = view
+            .robots
+            .iter()
+            .filter_map(|r| {
+                r.pose.map(|p| RobotState {
+                    id: r.id,
+                    kind: r.kind,
+                    pose: Pose2::new(p.x, p.y, p.theta),
+                })
+            })
+            .collect();
+        self.seen.extend(states.iter().map(|s| s.id));
+        let tick = self.runner.tick(t, &states);
+        self.events.extend(tick.events.iter().cloned());
+        if !matches!(self.runner.state(), RunState::Running { .. }) && self.finished_at.is_none() {
+            self.finished_at = Some(t);
+        }
+        let by_id: BTreeMap<RobotId, &RobotState> = states.iter().map(|s| (s.id, s)).collect();
+        let mut inputs = Vec::new();
+        let mut straight = BTreeSet::new();
+        let mut wait = BTreeSet::new();
+        let mut segments: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        for task in &tick.tasks {
+            let Some(s) = by_id.get(&task.robot) else {
+                continue;
+            };
+            segments.entry(task.segment).or_default().push(task.robot);
+            if task.straight_only {
+                straight.insert(task.robot);
+            }
+            if matches!(task.role, Role::Wait) {
+                wait.insert(task.robot);
+            }
+            inputs.push(RobotInput {
+                id: task.robot,
+                pose: Pose::new(s.pose.x, s.pose.y, s.pose.yaw),
+                limits: self.limits(s.kind),
+                costs: Self::costs(&task.role),
+            });
+        }
+        // Partners/leaders that are not in this tick's inputs would be rejected by the MPC.
+        let present: BTreeSet<RobotId> = inputs.iter().map(|r| r.id).collect();
+        for r in &mut inputs {
+            r.costs.retain(|c| match c {
+                CostTerm::AlignPair { partner, .. } => present.contains(partner),
+                CostTerm::FollowLeader { leader, .. } => present.contains(leader),
+                _ => true,
+            });
+        }
+        let pairs: Vec<CoupledPair> = tick
+            .maintain
+            .iter()
+            .filter(|m| m.kind == PairType::AnchorOpening)
+            .filter(|m| present.contains(&m.a) && present.contains(&m.b))
+            .map(|m| CoupledPair {
+                anchor_robot: m.a,
+                opening_robot: m.b,
+            })
+            .collect();
+        let mut out = BTreeMap::new();
+        match self.mpc.tick(&inputs, &pairs) {
+            Ok(o) => {
+                for r in o.robots {
+                    if !r.status.is_solved() {
+                        self.mpc_failures += 1;
+                    }
+                    let mut w = r.command.omega;
+                    // Pilots move straight only (THESIS 5.4.1); waiting robots are not driven
+                    // (THESIS 3.5.2).
+                    if straight.contains(&r.id) {
+                        w = 0.0;
+                    }
+                    let tw = if wait.contains(&r.id) {
+                        Twist::new(0.0, 0.0)
+                    } else {
+                        Twist::new(r.command.v, w)
+                    };
+                    out.insert(r.id, tw);
+                }
+            }
+            Err(e) => {
+                self.mpc_failures += 1;
+                tracing::warn!("assembly MPC input rejected: {e}");
+            }
+        }
+        let segs: BTreeMap<usize, Vec<RobotId>> =
+            segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
+        let maintain = tick.maintain.clone();
+        self.gate(t, &states, &maintain, &segs, &mut out);
+        out
+    }
+
+    fn done(&self, t: f64) -> bool {
+        self.finished_at.is_some_and(|f| t >= f + self.settle)
+    }
+}
+
+/// What `puzzlebot run SCENARIO.toml` left behind.
+#[derive(Debug, Clone, Serialize)]
+pub struct AssemblyReport {
+    /// Run folder.
+    pub folder: PathBuf,
+    /// Final scenario state.
+    pub state: RunState,
+    /// Coordinator events (also in `events.jsonl` / `assembly_events.jsonl`).
+    pub events: Vec<Event>,
+    /// Gate stops.
+    pub gate_stops: Vec<GateStop>,
+    /// Loop summary.
+    #[serde(skip)]
+    pub summary: RunSummary,
+    /// Final ground-truth poses (simulated runs).
+    pub final_poses: BTreeMap<RobotId, [f64; 3]>,
+    /// Pairs coupled in the simulator's ground truth at the end (a, b).
+    pub coupled_truth: Vec<(RobotId, RobotId)>,
+    /// MPC ticks with a failed solve.
+    pub mpc_failures: u64,
+}
+
+/// Optional hook called every 100 ms of a simulated run with the harness and the time (s):
+/// tests use it to switch robots off mid-run.
+pub type RunHook = Box<dyn FnMut(&SimHarness, f64) + Send>;
+
+/// Run an assembly scenario against an in-process simulated fleet `sim` (loopback), recording
+/// into a new run folder under `runs_dir`: `events.jsonl` gets every pair status change and
+/// gate stop with its time, `assembly_events.jsonl` the coordinator events alone, plus the
+/// trajectory plots.
+pub async fn run_scenario(
+    scenario: AsmScenario,
+    sim: puzzlebot_sim::Scenario,
+    runs_dir: &Path,
+    max_duration: f64,
+    mut hook: Option<RunHook>,
+) -> anyhow::Result<AssemblyReport> {
+    let n = sim.robots.iter().filter(|r| !r.offline).count();
+    let gate = GateConfig {
+        terrain: sim.terrain.clone(),
+        ..GateConfig::default()
+    };
+    let params = sim.params.clone();
+    let name = format!("assembly-{}", scenario.name);
+    let h = SimHarness::start(sim).await?;
+    h.wait_ready(n, Duration::from_secs(5)).await?;
+    let mut ctl = AssemblyController::new(scenario, params, gate)?;
+    let mut folder = RunFolder::create(runs_dir, &name)?;
+    let mut lp = h.control_loop();
+    lp.options.max_duration = max_duration;
+    let summary = if let Some(hook) = hook.as_mut() {
+        let start = tokio::time::Instant::now();
+        let run = lp.run(&mut ctl, Some(&mut folder), None);
+        tokio::pin!(run);
+        let mut iv = tokio::time::interval(Duration::from_millis(100));
+        loop {
+            tokio::select! {
+                s = &mut run => break s,
+                _ = iv.tick() => hook(&h, start.elapsed().as_secs_f64()),
+            }
+        }
+    } else {
+        lp.run(&mut ctl, Some(&mut folder), None).await
+    };
+    write_events(&mut folder, &ctl)?;
+    folder.finish()?;
+    folder.write_json("summary.json", &summary)?;
+    let truth = h.fleet.ground_truth();
+    let final_poses = truth
+        .robots
+        .iter()
+        .map(|r| (r.id, [r.pose.x, r.pose.y, r.pose.yaw]))
+        .collect();
+    let ids: Vec<RobotId> = truth.robots.iter().map(|r| r.id).collect();
+    let mut coupled_truth = Vec::new();
+    for &a in &ids {
+        for &b in &ids {
+            if a != b && truth.are_coupled(a, b) {
+                coupled_truth.push((a, b));
+            }
+        }
+    }
+    let report = AssemblyReport {
+        folder: folder.dir().to_path_buf(),
+        state: ctl.state().clone(),
+        events: ctl.events.clone(),
+        gate_stops: ctl.gate_stops.clone(),
+        summary,
+        final_poses,
+        coupled_truth,
+        mpc_failures: ctl.mpc_failures,
+    };
+    folder.write_json("assembly_report.json", &report)?;
+    h.shutdown().await;
+    Ok(report)
+}
+
+fn write_events(folder: &mut RunFolder, ctl: &AssemblyController) -> anyhow::Result<()> {
+    #[derive(Serialize)]
+    struct GateRec<'a> {
+        t: f64,
+        event: &'static str,
+        #[serde(flatten)]
+        stop: &'a GateStop,
+    }
+    let mut lines = String::new();
+    for e in &ctl.events {
+        folder.event(e)?;
+        lines.push_str(&serde_json::to_string(e)?);
+        lines.push('\n');
+    }
+    for g in &ctl.gate_stops {
+        let rec = GateRec {
+            t: g.t,
+            event: "gate_stop",
+            stop: g,
+        };
+        folder.event(&rec)?;
+        lines.push_str(&serde_json::to_string(&rec)?);
+        lines.push('\n');
+    }
+    std::fs::write(folder.dir().join("assembly_events.jsonl"), lines)?;
+    Ok(())
+}
+
+/// A simulated fleet for an assembly scenario without a simulator file: `n` non-pilot robots
+/// (the first `pilots` ids are pilots) scattered deterministically from `seed` in a 0.6 m
+/// square around the origin, at least 0.12 m apart.
+pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Scenario {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut poses: Vec<[f64; 3]> = Vec::new();
+    while poses.len() < n {
+        let p = [
+            rng.random_range(-0.3..0.3),
+            rng.random_range(-0.3..0.3),
+            rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+        ];
+        if poses
+            .iter()
+            .all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) > 0.12)
+        {
+            poses.push(p);
+        }
+    }
+    let robots = poses
+        .into_iter()
+        .enumerate()
+        .map(|(i, pose)| puzzlebot_sim::RobotSpec {
+            id: (i + 1) as RobotId,
+            kind: if i < pilots {
+                RobotKind::Pilot
+            } else {
+                RobotKind::NonPilot
+            },
+            pose,
+            impairments: None,
+            offline: false,
+        })
+        .collect();
+    puzzlebot_sim::Scenario {
+        seed,
+        robots,
+        ..puzzlebot_sim::Scenario::default()
+    }
+}
+
+/// Human-readable summary of an assembly run.
+pub fn describe(r: &AssemblyReport) -> String {
+    let mut s = format!("run folder: {}\nscenario state: {:?}\n", r.folder.display(), r.state);
+    for e in &r.events {
+        if let Ok(j) = serde_json::to_string(e) {
+            s.push_str(&format!("  {j}\n"));
+        }
+    }
+    for g in &r.gate_stops {
+        s.push_str(&format!(
+            "  t={:.2} s gate stopped {:?}: safe advance {:.4} m along {:.1}°, {:?}\n",
+            g.t,
+            g.robots,
+            g.safe_advance,
+            g.heading.to_degrees(),
+            g.limited_by
+        ));
+    }
+    s.push_str(&format!(
+        "ground-truth couplings at the end: {:?}\nMPC ticks with a failed solve: {}\n",
+        r.coupled_truth, r.mpc_failures
+    ));
+    s
+}
+
+/// Coordinator mode name (for logs).
+pub fn mode_name(m: &Mode) -> &'static str {
+    match m {
+        Mode::Hold => "hold",
+        Mode::Form => "form",
+        Mode::Velocity { .. } => "velocity",
+        Mode::GoTo { .. } => "go_to",
+        Mode::Track { .. } => "track",
+        Mode::Rendezvous { .. } => "rendezvous",
+        Mode::Decouple { .. } => "decouple",
+        Mode::Disperse { .. } => "disperse",
+    }
+}
+
+/// The assembly demo scenario (a copy of host/assembly/data/scenarios/demo.toml, embedded so
+/// the binary runs from any directory).
+pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
