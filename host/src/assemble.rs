@@ -457,6 +457,8 @@ pub struct AssemblyReport {
     pub coupled_truth: Vec<(RobotId, RobotId)>,
     /// MPC ticks with a failed solve.
     pub mpc_failures: u64,
+    /// Robots that fell (simulator ground truth).
+    pub fallen: Vec<RobotId>,
 }
 
 /// Optional hook called every 100 ms of a simulated run with the harness and the time (s):
@@ -528,6 +530,7 @@ pub async fn run_scenario(
         final_poses,
         coupled_truth,
         mpc_failures: ctl.mpc_failures,
+        fallen: truth.robots.iter().filter(|r| r.fallen).map(|r| r.id).collect(),
     };
     folder.write_json("assembly_report.json", &report)?;
     h.shutdown().await;
@@ -646,3 +649,12 @@ pub fn mode_name(m: &Mode) -> &'static str {
 /// The assembly demo scenario (a copy of host/assembly/data/scenarios/demo.toml, embedded so
 /// the binary runs from any directory).
 pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
+
+/// The assembly library, for callers of this module (tests, tools).
+pub use puzzlebot_assembly as assembly;
+
+/// Parse an assembly scenario from TOML text (`name` labels errors) with the default geometry.
+pub fn parse_scenario(name: &str, text: &str) -> anyhow::Result<AsmScenario> {
+    let g = FleetParams::default().non_pilot.geometry;
+    Ok(AsmScenario::from_toml_str(Path::new(name), text, &g)?)
+}

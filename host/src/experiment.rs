@@ -50,6 +50,10 @@ pub struct CouplingRun {
     pub t2: Option<f64>,
     /// Coupled in the simulator's ground truth at the end.
     pub coupled: bool,
+    /// Final pose of the non-pilot in the pilot's body frame (x, y m; yaw rad).
+    pub final_relative: [f64; 3],
+    /// Simulated seconds the run lasted.
+    pub sim_s: f64,
 }
 
 /// Statistics of a batch.
@@ -253,7 +257,17 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         w.step();
         host.pump(&mut w);
     }
-    let coupled = w.ground_truth().are_coupled(2, 1);
+    let truth = w.ground_truth();
+    let coupled = truth.are_coupled(2, 1);
+    let final_relative = match (truth.robot(1), truth.robot(2)) {
+        (Some(a), Some(b)) => {
+            let (dx, dy) = (a.pose.x - b.pose.x, a.pose.y - b.pose.y);
+            let (s, c) = b.pose.yaw.sin_cos();
+            [c * dx + s * dy, -s * dx + c * dy, a.pose.yaw - b.pose.yaw]
+        }
+        _ => [f64::NAN; 3],
+    };
+    let sim_s = (w.time_us() - start) as f64 * 1e-6;
     let first = |s: PairStatus| {
         ctl.events.iter().find_map(|e| match &e.kind {
             EventKind::PairStatus { to, .. } if *to == s => Some(e.t),
@@ -269,6 +283,8 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         t1,
         t2,
         coupled,
+        final_relative,
+        sim_s,
     })
 }
 

@@ -1,0 +1,204 @@
+//! Assemblies end to end (issue 7, issue 8 item 4): the host's assembly controller
+//! (coordinator → distributed MPC → drive mapping) drives a simulated fleet over loopback UDP
+//! in real time; couplings are judged by the simulator's ground truth (anchor/knob mechanics).
+
+use puzzlebot_host::assemble::assembly::EventKind;
+use puzzlebot_host::assemble::{parse_scenario, run_scenario, AssemblyReport, RunHook};
+use puzzlebot_protocol::messages::RobotId;
+use puzzlebot_sim::Scenario;
+
+fn sim(text: &str) -> Scenario {
+    Scenario::from_toml(std::path::Path::new("fleet.toml"), text).expect("simulator scenario")
+}
+
+fn coupled(r: &AssemblyReport, a: RobotId, b: RobotId) -> bool {
+    r.coupled_truth.contains(&(a, b)) || r.coupled_truth.contains(&(b, a))
+}
+
+fn finished(r: &AssemblyReport) -> bool {
+    matches!(
+        r.state,
+        puzzlebot_host::assemble::assembly::RunState::Finished
+    )
+}
+
+async fn run(name: &str, scenario: &str, fleet: Scenario, limit: f64, hook: Option<RunHook>) -> AssemblyReport {
+    let runs = puzzlebot_e2e::scratch(name);
+    let s = parse_scenario(name, scenario).expect("assembly scenario");
+    let r = run_scenario(s, fleet, &runs, limit, hook).await.expect("run");
+    print!("{}", puzzlebot_host::assemble::describe(&r));
+    assert!(r.folder.join("trajectories.svg").is_file());
+    assert!(r.folder.join("assembly_events.jsonl").is_file());
+    r
+}
+
+fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
+    let mut s = String::from("seed = 3\n");
+    for (id, kind, p) in poses {
+        s.push_str(&format!(
+            "[[robots]]\nid = {id}\nkind = \"{kind}\"\npose = [{}, {}, {}]\n",
+            p[0], p[1], p[2]
+        ));
+    }
+    s
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
+    let fleet = sim(&row(&[
+        (1, "NonPilot", [0.0, 0.0, 0.0]),
+        (2, "NonPilot", [-0.085, 0.01, 0.1]),
+        (3, "NonPilot", [-0.17, -0.01, -0.1]),
+        (4, "NonPilot", [-0.255, 0.0, 0.05]),
+    ]));
+    let scenario = r#"
+name = "line"
+[[step]]
+form = { shape = "line", heading_deg = 0 }
+timeout_s = 40
+[[step]]
+move = { velocity = [0.03, 0.0], duration_s = 3.0 }
+[[step]]
+move = { velocity = [0.03, 0.15], duration_s = 3.0 }
+"#;
+    let r = run("assembly-line", scenario, fleet, 60.0, None).await;
+    assert!(finished(&r), "state {:?}", r.state);
+    let formed = r
+        .events
+        .iter()
+        .find(|e| matches!(e.kind, EventKind::FormationComplete))
+        .expect("formation complete");
+    assert!(formed.t < 40.0);
+    for (a, b) in [(1, 2), (2, 3), (3, 4)] {
+        assert!(coupled(&r, a, b), "pair {a}-{b} coupled after driving and turning");
+    }
+    // The line moved and turned as one body.
+    let yaw: Vec<f64> = (1..=4).map(|i| r.final_poses[&i][2]).collect();
+    assert!(yaw.iter().all(|y| *y > 0.15), "line turned: {yaw:?}");
+    let x1 = r.final_poses[&1][0];
+    assert!(x1 > 0.1, "line drove forward: x1 = {x1}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn four_robots_form_a_two_by_two_mesh() {
+    // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
+    let fleet = sim(&row(&[
+        (1, "NonPilot", [0.045, -0.03, 0.0]),
+        (2, "NonPilot", [-0.045, -0.03, 0.05]),
+        (3, "NonPilot", [0.075, 0.035, -0.05]),
+        (4, "NonPilot", [-0.02, 0.035, 0.0]),
+    ]));
+    let scenario = r#"
+name = "mesh"
+[[step]]
+form = { shape = "mesh", rows = 2, heading_deg = 0 }
+timeout_s = 50
+"#;
+    let r = run("assembly-mesh", scenario, fleet, 55.0, None).await;
+    assert!(finished(&r), "state {:?}", r.state);
+    // Two anchor rows and one knob between them (THESIS 5.2.2).
+    assert!(r.coupled_truth.len() >= 6, "couplings {:?}", r.coupled_truth);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_coupled_pair_decouples_and_both_reach_separate_goals() {
+    let mut fleet = sim(&row(&[
+        (1, "NonPilot", [0.0, 0.0, 0.0]),
+        (2, "NonPilot", [0.05, 0.0, 0.0]),
+    ]));
+    fleet.couplings = vec![puzzlebot_sim::CouplingSpec {
+        kind: puzzlebot_sim::LinkKind::Anchor,
+        a: 2,
+        b: 1,
+    }];
+    let scenario = r#"
+name = "release"
+[[step]]
+form = { shape = "line", heading_deg = 0 }
+timeout_s = 10
+[[step]]
+decouple = { v_bias = 0.01, w_max = 1.5, period_s = 0.5 }
+timeout_s = 20
+[[step]]
+disperse = { tolerance = 0.02, goal = [ { robot = 1, x = -0.15, y = 0.15 }, { robot = 2, x = 0.25, y = -0.1 } ] }
+timeout_s = 25
+"#;
+    let r = run("assembly-release", scenario, fleet, 58.0, None).await;
+    assert!(finished(&r), "state {:?}", r.state);
+    assert!(!coupled(&r, 1, 2), "released");
+    for (id, goal) in [(1, [-0.15, 0.15]), (2, [0.25, -0.1])] {
+        let p = r.final_poses[&id];
+        let d = (p[0] - goal[0]).hypot(p[1] - goal[1]);
+        assert!(d < 0.03, "robot {id} {d:.3} m from its goal");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_lost_mid_formation_is_replanned_without() {
+    let fleet = sim(&row(&[
+        (1, "NonPilot", [0.0, 0.0, 0.0]),
+        (2, "NonPilot", [-0.085, 0.01, 0.1]),
+        (3, "NonPilot", [-0.17, -0.01, -0.1]),
+        (4, "NonPilot", [-0.40, 0.1, 0.6]),
+    ]));
+    let scenario = r#"
+name = "lost"
+[[step]]
+form = { shape = "line", heading_deg = 0 }
+timeout_s = 45
+"#;
+    let mut off = false;
+    let hook: RunHook = Box::new(move |h, t| {
+        if !off && t > 1.0 {
+            off = true;
+            h.fleet.set_online(4, false);
+        }
+    });
+    let r = run("assembly-lost", scenario, fleet, 55.0, Some(hook)).await;
+    assert!(
+        r.events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::RobotLost { robot: 4 })),
+        "robot 4 declared lost"
+    );
+    assert!(
+        r.events.iter().any(|e| matches!(&e.kind,
+            EventKind::Replanned { robots } if !robots.contains(&4) && robots.len() == 3)),
+        "plan recomputed without robot 4"
+    );
+    assert!(finished(&r), "state {:?}", r.state);
+    assert!(coupled(&r, 1, 2) && coupled(&r, 2, 3), "{:?}", r.coupled_truth);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_gap_crossing_assembly_is_stopped_by_the_gate() {
+    let fleet: Scenario =
+        Scenario::from_file(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../hil-sim/scenarios/gap_crossing.toml"
+        )))
+        .expect("gap scenario");
+    let scenario = r#"
+name = "gap"
+[[step]]
+form = { shape = "line", heading_deg = 0 }
+timeout_s = 10
+[[step]]
+move = { go_to = [0.5, 0.0], tolerance = 0.02 }
+timeout_s = 15
+"#;
+    let r = run("assembly-gap", scenario, fleet, 30.0, None).await;
+    let stop = r.gate_stops.first().expect("the gate stopped the assembly");
+    assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
+    // Rigid-body bound: the centre of mass of the line (equal masses: the centroid) must stay
+    // on the platform (edge at x = 0).
+    let cx = r.final_poses.values().map(|p| p[0]).sum::<f64>() / r.final_poses.len() as f64;
+    assert!(cx <= 0.0, "centroid {cx:.4} m past the edge");
+    assert!(
+        stop.centre[0] + stop.safe_advance <= 0.005,
+        "gate bound {:.4} + {:.4}",
+        stop.centre[0],
+        stop.safe_advance
+    );
+    assert!(cx > -0.06, "the assembly advanced towards the edge: centroid {cx:.4}");
+}
