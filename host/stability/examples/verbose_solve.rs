@@ -14,15 +14,44 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(100);
     let a = Family::parse(&fam).expect("family").build(n, 7);
-    for rep in 0..5 {
+    let reps: usize = std::env::var("REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(5);
+    for rep in 0..reps {
         let t0 = Instant::now();
         let r = a.resolve().expect("valid");
         let p = socp::build(&r, false);
         let t1 = Instant::now();
-        let mut s = socp::settings();
-        s.verbose = rep == 4;
+        let mut s = if std::env::var("FULL_IR").is_ok() {
+            socp::settings()
+        } else {
+            socp::fast_settings()
+        };
+        s.verbose = rep + 1 == reps || std::env::var("VERB").is_ok();
         if std::env::var("NO_EQ").is_ok() {
             s.equilibrate_enable = false;
+        }
+        let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+        if let Some(v) = env("IR_MAX") {
+            s.iterative_refinement_max_iter = v as u32;
+        }
+        if let Some(v) = env("IR_RELTOL") {
+            s.iterative_refinement_reltol = v;
+        }
+        if let Some(v) = env("IR_ABSTOL") {
+            s.iterative_refinement_abstol = v;
+        }
+        if let Some(v) = env("STATIC_REG") {
+            s.static_regularization_constant = v;
+        }
+        if let Some(v) = env("TOL") {
+            s.tol_gap_abs = v;
+            s.tol_gap_rel = v;
+            s.tol_feas = v;
+        }
+        if std::env::var("NO_PRESOLVE").is_ok() {
+            s.presolve_enable = false;
         }
         let pm = CscMatrix::zeros((p.n, p.n));
         let mut solver = DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, s).expect("setup");
@@ -36,7 +65,7 @@ fn main() {
             (t3 - t2).as_secs_f64() * 1e3,
             solver.solution.iterations
         );
-        if rep == 4 {
+        if rep + 1 == reps {
             println!("{:?}", solver.timers);
         }
     }
