@@ -344,6 +344,10 @@ fn size(r: &Resolved) -> [usize; 3] {
     ]
 }
 
+/// Relative distance to a connector limit below which the loosely solved relaxed problem is
+/// re-solved at the default tolerance before it decides the verdict.
+const NEAR_LIMIT: f64 = 1e-3;
+
 /// Run the gate on a resolved model (Algorithm 2, solving the relaxed problem first).
 pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -> Report {
     if opt.fast_path {
@@ -370,11 +374,11 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
         total_seconds: 0.0,
         size: size(r),
     };
-    let run = |with_limits: bool, stats: &mut Stats| {
+    let run = |with_limits: bool, tol: f64, stats: &mut Stats| {
         let tb = Instant::now();
         let p = socp::build(r, with_limits);
         stats.build_seconds += tb.elapsed().as_secs_f64();
-        let (out, info) = socp::solve(&p, opt.max_iter);
+        let (out, info) = socp::solve_tol(&p, opt.max_iter, tol);
         stats.solves += 1;
         stats.iterations += info.iterations;
         stats.solve_seconds += info.seconds;
@@ -401,7 +405,21 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
     };
     // Relaxed problem first (𝕏, Definition 1): infeasible ⇒ whole-body instability. Its optimum
     // is also optimal for (41) when it satisfies every connector limit.
-    let (p, out) = run(false, &mut stats);
+    // It is solved at the looser tolerance first; when a connection's required wrench is within
+    // `NEAR_LIMIT` of its limit (the verdict could hinge on the last digits) it is solved
+    // again at the default tolerance and that solution decides, exactly as before.
+    let (mut p, mut out) = run(false, socp::LOOSE_TOL, &mut stats);
+    if let Outcome::Optimal(x) = &out {
+        let st = state_of(&p, x);
+        let near = st.conns.iter().zip(&r.connections).any(|(c, rc)| {
+            judge(&r.connectors[rc.connector], c)
+                .1
+                .is_some_and(|u| u > 1.0 - NEAR_LIMIT)
+        });
+        if near {
+            (p, out) = run(false, socp::TIGHT_TOL, &mut stats);
+        }
+    }
     let (verdict, state) = match out {
         Outcome::Infeasible => (Verdict::WholeBodyInstability, None),
         Outcome::Failed(reason) => (Verdict::NotProven { reason }, None),
@@ -415,7 +433,7 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
             if within {
                 (Verdict::Stable, Some(st))
             } else {
-                let (p2, out2) = run(true, &mut stats);
+                let (p2, out2) = run(true, socp::TIGHT_TOL, &mut stats);
                 match out2 {
                     Outcome::Optimal(x2) => (Verdict::Stable, Some(state_of(&p2, &x2))),
                     Outcome::Infeasible => (Verdict::InternalInstability, Some(st)),

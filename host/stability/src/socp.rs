@@ -493,9 +493,9 @@ pub const FAST_REFINEMENT_STEPS: u32 = 1;
 pub fn settings() -> DefaultSettings<f64> {
     DefaultSettings {
         verbose: false,
-        tol_gap_abs: 1e-7,
-        tol_gap_rel: 1e-7,
-        tol_feas: 1e-7,
+        tol_gap_abs: TIGHT_TOL,
+        tol_gap_rel: TIGHT_TOL,
+        tol_feas: TIGHT_TOL,
         max_iter: 100,
         ..DefaultSettings::default()
     }
@@ -516,7 +516,26 @@ pub fn fast_settings() -> DefaultSettings<f64> {
 /// solved again with Clarabel's full iterative refinement ([`settings`]), so the cheaper
 /// attempt can never turn a certificate the full solver would find into "not proven".
 pub fn solve(p: &Program, max_iter: u32) -> (Outcome, SolveInfo) {
-    let (out, info) = solve_with(p, max_iter, fast_settings());
+    solve_tol(p, max_iter, TIGHT_TOL)
+}
+
+/// Default feasibility/gap tolerance of [`settings`].
+pub const TIGHT_TOL: f64 = 1e-7;
+/// Looser tolerance for a first solve whose answer is re-checked (saves 1–2 iterations of
+/// 9–18); [`crate::gate`] re-solves at [`TIGHT_TOL`] when a limit is within reach.
+pub const LOOSE_TOL: f64 = 1e-6;
+
+/// [`solve`] with the gap and feasibility tolerances set to `tol` in the first attempt (the
+/// fallback with full refinement always uses [`TIGHT_TOL`]). Infeasibility tolerances are
+/// unchanged, so `Infeasible` is the same certificate.
+pub fn solve_tol(p: &Program, max_iter: u32, tol: f64) -> (Outcome, SolveInfo) {
+    let first = DefaultSettings {
+        tol_gap_abs: tol,
+        tol_gap_rel: tol,
+        tol_feas: tol,
+        ..fast_settings()
+    };
+    let (out, info) = solve_with(p, max_iter, first);
     match out {
         Outcome::Failed(_) => {
             let (out2, info2) = solve_with(p, max_iter, settings());
