@@ -18,7 +18,7 @@ use puzzlebot_assembly::{
 };
 use puzzlebot_mpc::{
     Command, ConnectionPoint, CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose,
-    RobotInput, StageWeights,
+    RobotInput, SolveStatus, StageWeights,
 };
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
@@ -104,6 +104,13 @@ pub struct AssemblyController {
     pub mpc_failures: u64,
     /// Robots ever seen.
     seen: BTreeSet<RobotId>,
+    /// Failed solves by reason.
+    pub mpc_failure_reasons: BTreeMap<String, u64>,
+    /// Give coupled anchor pairs to the MPC as coupling constraints (THESIS 5.23–5.24).
+    /// Off by default: with the simulator's coupled geometry the constrained QPs come out
+    /// primal infeasible on nearly every tick (measured: 456 of 456 solves in the gap run),
+    /// so coupled robots stalled; followers keep the shape through FollowLeader (5.25).
+    pub coupling_constraints: bool,
     /// Extra seconds after the scenario ends before [`Controller::done`].
     pub settle: f64,
     finished_at: Option<f64>,
@@ -130,6 +137,8 @@ impl AssemblyController {
             gated: BTreeSet::new(),
             mpc_failures: 0,
             seen: BTreeSet::new(),
+            mpc_failure_reasons: BTreeMap::new(),
+            coupling_constraints: false,
             settle: 0.5,
             finished_at: None,
         })
@@ -392,6 +401,7 @@ impl Controller for AssemblyController {
         let pairs: Vec<CoupledPair> = tick
             .maintain
             .iter()
+            .filter(|_| self.coupling_constraints)
             .filter(|m| m.kind == PairType::AnchorOpening)
             .filter(|m| present.contains(&m.a) && present.contains(&m.b))
             .map(|m| CoupledPair {
@@ -405,6 +415,12 @@ impl Controller for AssemblyController {
                 for r in o.robots {
                     if !r.status.is_solved() {
                         self.mpc_failures += 1;
+                        let reason = match &r.status {
+                            SolveStatus::Fallback { reason, .. }
+                            | SolveStatus::Stopped { reason } => reason.clone(),
+                            SolveStatus::Solved { .. } => String::new(),
+                        };
+                        *self.mpc_failure_reasons.entry(reason).or_insert(0) += 1;
                     }
                     let mut w = r.command.omega;
                     // Pilots move straight only (THESIS 5.4.1); waiting robots are not driven
@@ -459,6 +475,8 @@ pub struct AssemblyReport {
     pub mpc_failures: u64,
     /// Robots that fell (simulator ground truth).
     pub fallen: Vec<RobotId>,
+    /// Failed MPC solves by reason.
+    pub mpc_failure_reasons: BTreeMap<String, u64>,
 }
 
 /// Optional hook called every 100 ms of a simulated run with the harness and the time (s):
@@ -530,6 +548,7 @@ pub async fn run_scenario(
         final_poses,
         coupled_truth,
         mpc_failures: ctl.mpc_failures,
+        mpc_failure_reasons: ctl.mpc_failure_reasons.clone(),
         fallen: truth.robots.iter().filter(|r| r.fallen).map(|r| r.id).collect(),
     };
     folder.write_json("assembly_report.json", &report)?;
@@ -629,6 +648,9 @@ pub fn describe(r: &AssemblyReport) -> String {
         "ground-truth couplings at the end: {:?}\nMPC ticks with a failed solve: {}\n",
         r.coupled_truth, r.mpc_failures
     ));
+    for (why, n) in &r.mpc_failure_reasons {
+        s.push_str(&format!("  {n} × {why}\n"));
+    }
     s
 }
 

@@ -172,12 +172,19 @@ timeout_s = 45
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_gap_crossing_assembly_is_stopped_by_the_gate() {
-    let fleet: Scenario =
-        Scenario::from_file(std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../hil-sim/scenarios/gap_crossing.toml"
-        )))
-        .expect("gap scenario");
+    // hil-sim/scenarios/gap_crossing.toml with a 120 mm gap: wider than half the line's
+    // length (75 mm), so the rigid line must stop before its centre of mass passes the edge.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../hil-sim/scenarios/gap_crossing.toml"
+    ))
+    .expect("gap scenario")
+    .replace(
+        "[[0.04, -0.5], [1.0, -0.5], [1.0, 0.5], [0.04, 0.5]]",
+        "[[0.12, -0.5], [1.0, -0.5], [1.0, 0.5], [0.12, 0.5]]",
+    );
+    assert!(text.contains("[0.12, 0.5]"), "far platform moved");
+    let fleet = sim(&text);
     let scenario = r#"
 name = "gap"
 [[step]]
@@ -185,9 +192,9 @@ form = { shape = "line", heading_deg = 0 }
 timeout_s = 10
 [[step]]
 move = { go_to = [0.5, 0.0], tolerance = 0.02 }
-timeout_s = 15
+timeout_s = 10
 "#;
-    let r = run("assembly-gap", scenario, fleet, 30.0, None).await;
+    let r = run("assembly-gap", scenario, fleet, 12.0, None).await;
     let stop = r.gate_stops.first().expect("the gate stopped the assembly");
     assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
     // Rigid-body bound: the centre of mass of the line (equal masses: the centroid) must stay
