@@ -50,6 +50,12 @@ fn main() {
             s.tol_gap_rel = v;
             s.tol_feas = v;
         }
+        if let Some(v) = env("MAX_STEP") {
+            s.max_step_fraction = v;
+        }
+        if let Some(v) = env("EQ_ITERS") {
+            s.equilibrate_max_iter = v as u32;
+        }
         if std::env::var("NO_PRESOLVE").is_ok() {
             s.presolve_enable = false;
         }
