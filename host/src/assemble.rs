@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use puzzlebot_assembly::{
-    shape_info, Coordinator, Event, MaintainPair, Mode, PairType, Pose2, Role, RobotState,
+    shape_info, Coordinator, Event, MaintainPair, Mode, PairType, Pose2, RobotState, Role,
     RunState, Scenario as AsmScenario, ScenarioRunner, Shape,
 };
 use puzzlebot_mpc::{
@@ -33,7 +33,12 @@ use crate::report::RunFolder;
 use crate::simulated::SimHarness;
 
 /// `puzzlebot shape info`: the text (or JSON) of [`shape_info`] for `line`, `mesh` or a file.
-pub fn shape_info_text(shape: &str, robots: usize, rows: usize, json: bool) -> anyhow::Result<String> {
+pub fn shape_info_text(
+    shape: &str,
+    robots: usize,
+    rows: usize,
+    json: bool,
+) -> anyhow::Result<String> {
     let g = FleetParams::default().non_pilot.geometry;
     let s = match shape {
         "line" => Shape::line(robots, &g)?,
@@ -107,10 +112,13 @@ pub struct AssemblyController {
     /// Failed solves by reason.
     pub mpc_failure_reasons: BTreeMap<String, u64>,
     /// Give coupled anchor pairs to the MPC as coupling constraints (THESIS 5.23–5.24).
-    /// Off by default: with the simulator's coupled geometry the constrained QPs come out
-    /// primal infeasible on nearly every tick (measured: 456 of 456 solves in the gap run),
-    /// so coupled robots stalled; followers keep the shape through FollowLeader (5.25).
+    /// With the simulator's coupled geometry the constrained QPs often come out primal
+    /// infeasible (measured: 456 of 456 solves in the gap run), which stalled coupled
+    /// robots; such ticks are solved again without the constraints (counted in
+    /// `constraint_retries`), followers keeping the shape through FollowLeader (5.25).
     pub coupling_constraints: bool,
+    /// Ticks re-solved without coupling constraints.
+    pub constraint_retries: u64,
     /// Extra seconds after the scenario ends before [`Controller::done`].
     pub settle: f64,
     finished_at: Option<f64>,
@@ -118,7 +126,11 @@ pub struct AssemblyController {
 
 impl AssemblyController {
     /// A controller running `scenario` with the fleet parameters `params`.
-    pub fn new(scenario: AsmScenario, params: FleetParams, gate: GateConfig) -> anyhow::Result<Self> {
+    pub fn new(
+        scenario: AsmScenario,
+        params: FleetParams,
+        gate: GateConfig,
+    ) -> anyhow::Result<Self> {
         let coordinator = Coordinator::from_params(&params);
         let cfg = MpcConfig {
             geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),
@@ -138,7 +150,8 @@ impl AssemblyController {
             mpc_failures: 0,
             seen: BTreeSet::new(),
             mpc_failure_reasons: BTreeMap::new(),
-            coupling_constraints: false,
+            coupling_constraints: true,
+            constraint_retries: 0,
             settle: 0.5,
             finished_at: None,
         })
@@ -298,17 +311,21 @@ impl AssemblyController {
                 robots.iter().map(|r| r.x).sum::<f64>() / n,
                 robots.iter().map(|r| r.y).sum::<f64>() / n,
             ];
-            let (safe, why) =
-                match max_safe_advance(&asm, &self.params, &self.gate.terrain, heading, self.gate.step)
-                {
-                    Ok(a) => (a.distance, a.limited_by),
-                    Err(e) => (
-                        0.0,
-                        LimitedBy::NotProven {
-                            reason: e.to_string(),
-                        },
-                    ),
-                };
+            let (safe, why) = match max_safe_advance(
+                &asm,
+                &self.params,
+                &self.gate.terrain,
+                heading,
+                self.gate.step,
+            ) {
+                Ok(a) => (a.distance, a.limited_by),
+                Err(e) => (
+                    0.0,
+                    LimitedBy::NotProven {
+                        reason: e.to_string(),
+                    },
+                ),
+            };
             let room = safe - self.gate.margin;
             // Never command past the limit: the advance over the next two control periods
             // (latency) must stay inside the room left.
@@ -410,7 +427,28 @@ impl Controller for AssemblyController {
             })
             .collect();
         let mut out = BTreeMap::new();
-        match self.mpc.tick(&inputs, &pairs) {
+        // The wiggle (THESIS 5.7) is an open-loop command: the MPC's smoothing would filter
+        // out its square wave, so wiggling robots get it directly.
+        let mut direct: BTreeMap<RobotId, Twist> = BTreeMap::new();
+        if matches!(self.runner.coordinator().mode(), Mode::Decouple { .. }) {
+            for task in &tick.tasks {
+                if let Role::Velocity { v, w } = task.role {
+                    direct.insert(task.robot, Twist::new(v, w));
+                }
+            }
+        }
+        let mut result = self.mpc.tick(&inputs, &pairs);
+        // Workaround (see `coupling_constraints`): when the coupling-constrained QPs are
+        // infeasible, solve again without the constraints (FollowLeader keeps the shape).
+        if !pairs.is_empty()
+            && result
+                .as_ref()
+                .is_ok_and(|o| o.robots.iter().any(|r| !r.status.is_solved()))
+        {
+            self.constraint_retries += 1;
+            result = self.mpc.tick(&inputs, &[]);
+        }
+        match result {
             Ok(o) => {
                 for r in o.robots {
                     if !r.status.is_solved() {
@@ -441,6 +479,7 @@ impl Controller for AssemblyController {
                 tracing::warn!("assembly MPC input rejected: {e}");
             }
         }
+        out.extend(direct);
         let segs: BTreeMap<usize, Vec<RobotId>> =
             segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
         let maintain = tick.maintain.clone();
@@ -549,7 +588,12 @@ pub async fn run_scenario(
         coupled_truth,
         mpc_failures: ctl.mpc_failures,
         mpc_failure_reasons: ctl.mpc_failure_reasons.clone(),
-        fallen: truth.robots.iter().filter(|r| r.fallen).map(|r| r.id).collect(),
+        fallen: truth
+            .robots
+            .iter()
+            .filter(|r| r.fallen)
+            .map(|r| r.id)
+            .collect(),
     };
     folder.write_json("assembly_report.json", &report)?;
     h.shutdown().await;
@@ -628,7 +672,11 @@ pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Sce
 
 /// Human-readable summary of an assembly run.
 pub fn describe(r: &AssemblyReport) -> String {
-    let mut s = format!("run folder: {}\nscenario state: {:?}\n", r.folder.display(), r.state);
+    let mut s = format!(
+        "run folder: {}\nscenario state: {:?}\n",
+        r.folder.display(),
+        r.state
+    );
     for e in &r.events {
         if let Ok(j) = serde_json::to_string(e) {
             s.push_str(&format!("  {j}\n"));

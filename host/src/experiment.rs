@@ -15,9 +15,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 use puzzlebot_assembly::{EventKind, PairStatus, Scenario as AsmScenario};
 use puzzlebot_params::{FleetParams, RobotKind};
-use puzzlebot_protocol::{
-    FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM,
-};
+use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
 use puzzlebot_sim::{RobotSpec, Scenario, World};
 use serde::Serialize;
 
@@ -77,7 +75,8 @@ pub struct CouplingStats {
     pub folder: Option<PathBuf>,
 }
 
-const FORM: &str = "name = \"coupling\"\n[[step]]\nform = { shape = \"line\", heading_deg = 0 }\ntimeout_s = 60\n";
+const FORM: &str =
+    "name = \"coupling\"\n[[step]]\nform = { shape = \"line\", heading_deg = 0 }\ntimeout_s = 60\n";
 
 struct Host {
     key: FleetKey,
@@ -178,17 +177,19 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         w.step();
         host.pump(&mut w);
     }
-    let asm = AsmScenario::from_toml_str(
-        Path::new("coupling.toml"),
-        FORM,
-        &params.non_pilot.geometry,
-    )?;
+    let asm =
+        AsmScenario::from_toml_str(Path::new("coupling.toml"), FORM, &params.non_pilot.geometry)?;
     let mut ctl = AssemblyController::new(asm, params.clone(), GateConfig::default())?;
     ctl.settle = 0.0;
     let maps: BTreeMap<RobotId, DriveMap> = scenario
         .robots
         .iter()
-        .map(|r| (r.id, DriveMap::from_params_or_geometric(params.robot(r.kind))))
+        .map(|r| {
+            (
+                r.id,
+                DriveMap::from_params_or_geometric(params.robot(r.kind)),
+            )
+        })
         .collect();
     let kinds: BTreeMap<RobotId, RobotKind> =
         scenario.robots.iter().map(|r| (r.id, r.kind)).collect();
@@ -275,7 +276,9 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         })
     };
     let t1 = first(PairStatus::HeadAligned).or(first(PairStatus::Connected));
-    let t2 = first(PairStatus::Connected).filter(|_| coupled).or(coupled_at.filter(|_| coupled));
+    let t2 = first(PairStatus::Connected)
+        .filter(|_| coupled)
+        .or(coupled_at.filter(|_| coupled));
     Ok(CouplingRun {
         dx,
         dy,
@@ -295,7 +298,12 @@ pub fn run_all(runs: usize, threads: usize) -> anyhow::Result<Vec<CouplingRun>> 
         for j in 0..5 {
             for r in 0..runs {
                 let dx = 0.08 + 0.02 * i as f64;
-                jobs.push((dx, 0.02 * j as f64, r, (i * 5 + j) as u64 * 1000 + r as u64 + 1));
+                jobs.push((
+                    dx,
+                    0.02 * j as f64,
+                    r,
+                    (i * 5 + j) as u64 * 1000 + r as u64 + 1,
+                ));
             }
         }
     }
@@ -336,7 +344,10 @@ pub fn run_all(runs: usize, threads: usize) -> anyhow::Result<Vec<CouplingRun>> 
 /// Statistics of `runs`.
 pub fn stats(runs: Vec<CouplingRun>) -> CouplingStats {
     let n = runs.len().max(1) as f64;
-    let aligned = runs.iter().filter(|r| r.t1.is_some_and(|t| t <= 5.0)).count() as f64;
+    let aligned = runs
+        .iter()
+        .filter(|r| r.t1.is_some_and(|t| t <= 5.0))
+        .count() as f64;
     let t1: Vec<f64> = runs.iter().filter_map(|r| r.t1).collect();
     let mut t2: Vec<f64> = runs.iter().filter_map(|r| r.t2).collect();
     t2.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
@@ -407,14 +418,12 @@ fn plot(path: &Path, s: &CouplingStats) -> Result<(), String> {
     let root = SVGBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let n = s.runs.len() as f64;
-    let tmax = s
-        .runs
-        .iter()
-        .filter_map(|r| r.t2)
-        .fold(5.0_f64, f64::max)
-        * 1.1;
+    let tmax = s.runs.iter().filter_map(|r| r.t2).fold(5.0_f64, f64::max) * 1.1;
     let mut chart = ChartBuilder::on(&root)
-        .caption("Coupling experiment (THESIS 5.2.3): t1 alignment, t2 insertion", ("sans-serif", 18))
+        .caption(
+            "Coupling experiment (THESIS 5.2.3): t1 alignment, t2 insertion",
+            ("sans-serif", 18),
+        )
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(50)
@@ -434,12 +443,20 @@ fn plot(path: &Path, s: &CouplingStats) -> Result<(), String> {
             .collect::<Vec<_>>()
     };
     chart
-        .draw_series(pts(|r| r.t1).into_iter().map(|p| Circle::new(p, 3, BLUE.filled())))
+        .draw_series(
+            pts(|r| r.t1)
+                .into_iter()
+                .map(|p| Circle::new(p, 3, BLUE.filled())),
+        )
         .map_err(|e| e.to_string())?
         .label("t1 head aligned")
         .legend(|(x, y)| Circle::new((x, y), 3, BLUE.filled()));
     chart
-        .draw_series(pts(|r| r.t2).into_iter().map(|p| Circle::new(p, 3, RED.filled())))
+        .draw_series(
+            pts(|r| r.t2)
+                .into_iter()
+                .map(|p| Circle::new(p, 3, RED.filled())),
+        )
         .map_err(|e| e.to_string())?
         .label("t2 connected")
         .legend(|(x, y)| Circle::new((x, y), 3, RED.filled()));

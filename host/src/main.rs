@@ -5,8 +5,8 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use puzzlebot_host::{app, assemble, calibrate, config::Fleet};
 use puzzlebot_assembly::Scenario as AsmScenario;
+use puzzlebot_host::{app, assemble, calibrate, config::Fleet};
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
 #[derive(Parser)]
