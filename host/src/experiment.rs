@@ -19,7 +19,7 @@ use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, 
 use puzzlebot_sim::{RobotSpec, Scenario, World};
 use serde::Serialize;
 
-use crate::assemble::{AssemblyController, GateConfig};
+use crate::assemble::{AssemblyController, GateConfig, EXPERIMENT_INSERT_FACTOR};
 use crate::control::{Controller, FleetView, RobotView};
 use crate::drive::{DriveMap, PoseSample, Twist};
 use crate::report::RunFolder;
@@ -179,7 +179,12 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
     }
     let asm =
         AsmScenario::from_toml_str(Path::new("coupling.toml"), FORM, &params.non_pilot.geometry)?;
-    let mut ctl = AssemblyController::new(asm, params.clone(), GateConfig::default())?;
+    let mut ctl = AssemblyController::with_insert_factor(
+        asm,
+        params.clone(),
+        GateConfig::default(),
+        EXPERIMENT_INSERT_FACTOR,
+    )?;
     ctl.settle = 0.0;
     let maps: BTreeMap<RobotId, DriveMap> = scenario
         .robots

@@ -133,7 +133,7 @@ form = { shape = "line", heading_deg = 0 }
 timeout_s = 10
 [[step]]
 decouple = { v_bias = 0.08, w_max = 6.0, period_s = 1.0 }
-timeout_s = 15
+timeout_s = 25
 [[step]]
 disperse = { tolerance = 0.02, goal = [ { robot = 1, x = -0.15, y = 0.15 }, { robot = 2, x = 0.25, y = -0.1 } ] }
 timeout_s = 25
