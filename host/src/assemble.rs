@@ -756,3 +756,11 @@ pub fn parse_scenario(name: &str, text: &str) -> anyhow::Result<AsmScenario> {
     let g = FleetParams::default().non_pilot.geometry;
     Ok(AsmScenario::from_toml_str(Path::new(name), text, &g)?)
 }
+
+/// An error unless the scenario of `r` finished (for the CLI's exit status).
+pub fn ensure_finished(r: &AssemblyReport) -> anyhow::Result<()> {
+    match &r.state {
+        RunState::Finished => Ok(()),
+        other => anyhow::bail!("the assembly scenario did not finish: {other:?}"),
+    }
+}

@@ -218,6 +218,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             )
             .await?;
             print!("{}", assemble::describe(&report));
+            assemble::ensure_finished(&report)?;
             println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
         }
         Cmd::Run {
@@ -237,6 +238,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let report = assemble::run_scenario(scenario, sim, &runs, limit, None).await?;
             print!("{}", assemble::describe(&report));
+            assemble::ensure_finished(&report)?;
         }
         Cmd::Experiment {
             command: ExperimentCmd::Coupling { runs: n, json },
