@@ -22,6 +22,10 @@ fn finished(r: &AssemblyReport) -> bool {
     )
 }
 
+/// The runs are real time and share two cores with their simulated fleets: one at a time,
+/// so a test measures the controller, not the scheduler.
+static REAL_TIME: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
 async fn run(
     name: &str,
     scenario: &str,
@@ -29,6 +33,7 @@ async fn run(
     limit: f64,
     hook: Option<RunHook>,
 ) -> AssemblyReport {
+    let _one_at_a_time = REAL_TIME.lock().await;
     let runs = puzzlebot_e2e::scratch(name);
     let s = parse_scenario(name, scenario).expect("assembly scenario");
     let r = run_scenario(s, fleet, &runs, limit, hook)
