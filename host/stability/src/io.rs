@@ -9,12 +9,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum GateError {
     /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// File.
         path: PathBuf,
-        /// Cause.
-        source: std::io::Error,
+        /// Cause (shown in the message, not repeated as an error source).
+        cause: std::io::Error,
     },
     /// The file does not parse or a field has the wrong type; names file, line and field.
     #[error("{path}:{line}:{column}: field `{field}`: {message}")]
@@ -31,12 +31,12 @@ pub enum GateError {
         message: String,
     },
     /// The content is inconsistent (unknown ids, negative mass, ...); names the field.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Model {
         /// File.
         path: PathBuf,
-        /// Cause.
-        source: ModelError,
+        /// Cause (shown in the message, not repeated as an error source).
+        cause: ModelError,
     },
     /// Unknown file extension.
     #[error("{0}: unknown extension (use .json or .toml)")]
@@ -102,14 +102,14 @@ pub fn load_assembly(path: &Path) -> Result<Assembly, GateError> {
         Some("json") => false,
         _ => return Err(GateError::Extension(path.to_path_buf())),
     };
-    let text = std::fs::read_to_string(path).map_err(|source| GateError::Io {
+    let text = std::fs::read_to_string(path).map_err(|cause| GateError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     let a = parse_assembly(&text, toml_format, path)?;
-    a.resolve().map_err(|source| GateError::Model {
+    a.resolve().map_err(|cause| GateError::Model {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     Ok(a)
 }
@@ -210,9 +210,9 @@ pub fn render_json(r: &Report) -> String {
 /// and draw the assembly coloured by connection load when `picture` is given.
 pub fn gate_command(path: &Path, json: bool, picture: Option<&Path>) -> Result<String, GateError> {
     let a = load_assembly(path)?;
-    let report = evaluate(&a).map_err(|source| GateError::Model {
+    let report = evaluate(&a).map_err(|cause| GateError::Model {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     if let Some(pic) = picture {
         crate::picture::draw(&a, &report, pic).map_err(|message| GateError::Picture {
