@@ -31,11 +31,11 @@ pub enum Mode {
 }
 
 impl Mode {
-    /// Largest command magnitude.
+    /// Largest command magnitude: the firmware's speed range (RPM) or full duty (per-mille).
     pub fn full_scale(self) -> f64 {
         match self {
-            Mode::Speed => 450.0,
-            Mode::Duty => 1000.0,
+            Mode::Speed => f64::from(puzzlebot_params::firmware::Firmware::default().max_rpm),
+            Mode::Duty => f64::from(puzzlebot_protocol::messages::DUTY_FULL_SCALE),
         }
     }
 
@@ -53,10 +53,13 @@ impl Mode {
                 left_rpm: left as f32,
                 right_rpm: right as f32,
             },
-            Mode::Duty => HostMsg::RawDuty {
-                left: left.round().clamp(-1000.0, 1000.0) as i16,
-                right: right.round().clamp(-1000.0, 1000.0) as i16,
-            },
+            Mode::Duty => {
+                let fs = Mode::Duty.full_scale();
+                HostMsg::RawDuty {
+                    left: left.round().clamp(-fs, fs) as i16,
+                    right: right.round().clamp(-fs, fs) as i16,
+                }
+            }
         }
     }
 }
