@@ -31,10 +31,16 @@
 //!
 //! 1. *Free*: the head collides with other robots like a solid point.
 //! 2. *Inserting*: the head reached another robot's front face with
-//!    |lateral offset| ≤ `anchor_align_tolerance` (3.5 mm) and the robots are pushed
-//!    together: the head may enter, guided laterally into the opening.
-//! 3. *Coupled*: once fully in (the anchor robot's rear face at the front face), the head
-//!    is pinned in the opening's slits; relative yaw is limited to ±`anchor_yaw_range`
+//!    |lateral offset| ≤ `anchor_align_tolerance` (3.5 mm) and relative yaw ≤
+//!    `anchor_entry_yaw` ([`Coupling::anchor_at_mouth`]) and the robots are pushed
+//!    together: the head may enter, guided laterally into the opening. From here on the
+//!    anchor governs the pair: their body rectangles no longer block each other (the
+//!    opening sits in a recess and the front corners are rounded, THESIS Fig 4.3; the
+//!    rectangles would otherwise stop a yawed anchor millimetres short of its seat while
+//!    the same yaw is allowed once coupled).
+//! 3. *Coupled*: once the head is within `anchor_seat` of its seat
+//!    ([`Coupling::anchor_seated`], the same predicate the host's pair status machine
+//!    uses for "head inserted"), the head is pinned in the opening's slits; relative yaw is limited to ±`anchor_yaw_range`
 //!    and the anchor slides in its holder by up to `anchor_travel`. Both legs sit in the
 //!    slits: pulling straight only takes up the 5 mm travel and drags the other robot.
 //! 4. A relative yaw beyond [`LEG_RELEASE_FRACTION`] of the range pops the leg on that
@@ -42,21 +48,20 @@
 //!    to full travel releases the anchor (*Releasing* until the head is clear). Pushing
 //!    back in straight (zero travel, small yaw) re-seats popped legs.
 //!
-//! Knobs couple when the knob of one robot is within `knob_align_tolerance` (1 mm) of
-//! the other's hole along the side, the headings agree within [`KNOB_YAW_TOLERANCE`]
-//! and the sides touch; they are rigid afterwards (the two robots keep their relative
-//! pose). A knob pair holds more than robots can pull (`knob_hold_force`), so it is
+//! Each side carries two connection points at ±`Geometry::side_point_x` (THESIS Fig 5.12):
+//! knobs on the left, holes on the right. A knob couples when it is within
+//! `knob_align_tolerance` (1 mm) of a hole of the other robot along the side, the headings
+//! agree within `knob_yaw_tolerance` and the sides touch ([`Coupling::knob_seated`]);
+//! side by side both knobs go in, with the half-body offset of a mesh (THESIS 5.2.2) one.
+//! The pair is rigid afterwards (the two robots keep their relative pose). A knob pair holds more than robots can pull (`knob_hold_force`), so it is
 //! released only by [`Mechanics::detach`] (a person pulling it apart).
 
 use crate::math::{cross, dot, norm, sub, wrap, Frame, Pose, V2};
-use puzzlebot_params::{coupling::Coupling, geometry::Geometry};
+use puzzlebot_params::coupling::{AnchorProbe, Coupling, KnobProbe};
+use puzzlebot_params::geometry::Geometry;
 
 /// Fraction of the anchor yaw range beyond which a leg pops out of its slit.
 pub const LEG_RELEASE_FRACTION: f64 = 0.7;
-/// Heading agreement needed for knobs to slide in (rad): a 1 mm fit over 25 mm.
-pub const KNOB_YAW_TOLERANCE: f64 = 0.04;
-/// Relative yaw at which an anchor can still start entering an opening (rad).
-pub const ANCHOR_ENTRY_YAW: f64 = 0.35;
 /// Projection iterations per step.
 pub const ITERATIONS: usize = 4;
 
@@ -95,6 +100,9 @@ pub struct Link {
     pub legs: [bool; 2],
     /// Relative yaw extreme reached since the first leg popped (rad).
     pub swing: f64,
+    /// Knob links: `b`'s position in `a`'s frame (m), fixed when the knob clicked in
+    /// (side by side: (0, width); half-body offset: (±2·side_point_x, width)).
+    pub offset: [f64; 2],
 }
 
 /// What happened to a coupling in one step.
@@ -156,6 +164,8 @@ pub struct Shape {
     head: V2,
     opening: V2,
     knob: V2,
+    /// x of the two connection points on each side (m).
+    side_x: f64,
     /// Depth the head sits inside the other body when fully in (m).
     depth: f64,
     radius: f64,
@@ -171,12 +181,13 @@ impl Shape {
             f64::from(g.anchor_opening[1]),
         ];
         let knob = [f64::from(g.knob_left[0]), f64::from(g.knob_left[1])];
-        let depth = (-head[0] - half[0]).max(0.0);
+        let depth = Coupling::anchor_depth(g);
         Shape {
             half,
             head,
             opening,
             knob,
+            side_x: f64::from(g.side_point_x),
             depth,
             radius: norm(half).max(norm(head)),
         }
@@ -192,6 +203,8 @@ impl Shape {
 #[derive(Debug, Clone)]
 pub struct Mechanics {
     shape: Shape,
+    geometry: Geometry,
+    coupling: Coupling,
     c: CouplingF,
     links: Vec<Link>,
     pairs: Vec<(usize, usize)>,
@@ -203,7 +216,6 @@ struct CouplingF {
     align: f64,
     yaw: f64,
     travel: f64,
-    knob: f64,
 }
 
 /// Apply a position-based correction `delta` (world) at world point `p` to body `b`, with
@@ -280,11 +292,12 @@ impl Mechanics {
     pub fn new(g: &Geometry, c: &Coupling) -> Mechanics {
         Mechanics {
             shape: Shape::new(g),
+            geometry: *g,
+            coupling: *c,
             c: CouplingF {
                 align: f64::from(c.anchor_align_tolerance),
                 yaw: f64::from(c.anchor_yaw_range),
                 travel: f64::from(c.anchor_travel),
-                knob: f64::from(c.knob_align_tolerance),
             },
             links: Vec::new(),
             pairs: Vec::new(),
@@ -306,7 +319,8 @@ impl Mechanics {
     }
 
     /// Start with robots `a` and `b` already coupled (scenario setup). The poses should
-    /// already be in the coupled relation; the constraints pull them into it otherwise.
+    /// already be in the coupled relation; the constraints pull them into it otherwise
+    /// (a knob takes the knob/hole combination nearest to the poses at the next step).
     pub fn attach(&mut self, kind: LinkKind, a: usize, b: usize) {
         self.links
             .retain(|l| !(l.a == a && l.b == b && l.kind == kind));
@@ -317,7 +331,19 @@ impl Mechanics {
             state: LinkState::Coupled,
             legs: [true, true],
             swing: 0.0,
+            offset: [f64::NAN; 2],
         });
+    }
+
+    /// `b`'s position in `a`'s frame for the knob/hole combination nearest to `rel` (b in
+    /// a's frame): x ∈ {−2·side_x, 0, 2·side_x}, y = knob side to hole side.
+    fn knob_offset(&self, rel: V2) -> V2 {
+        let sx = self.shape.side_x;
+        let x = [-2.0 * sx, 0.0, 2.0 * sx]
+            .into_iter()
+            .min_by(|p, q| (p - rel[0]).abs().total_cmp(&(q - rel[0]).abs()))
+            .unwrap_or(0.0);
+        [x, 2.0 * self.shape.knob[1]]
     }
 
     /// Pairs of active bodies whose rectangles touch (within 0.5 mm) or overlap.
@@ -417,6 +443,13 @@ impl Mechanics {
         if self.pairs.is_empty() && self.links.is_empty() {
             return;
         }
+        for k in 0..self.links.len() {
+            let l = self.links[k];
+            if l.kind == LinkKind::Knob && l.offset[0].is_nan() {
+                let rel = bodies[l.a].pose.inverse_apply(bodies[l.b].pose.pos());
+                self.links[k].offset = self.knob_offset(rel);
+            }
+        }
         self.detect(bodies, events);
         for _ in 0..ITERATIONS {
             let moved = self.project_contacts(bodies);
@@ -430,6 +463,9 @@ impl Mechanics {
 
     fn detect(&mut self, bodies: &[Body], events: &mut Vec<LinkEvent>) {
         let sh = self.shape;
+        let (g, cp) = (self.geometry, self.coupling);
+        let entry_yaw = f64::from(cp.anchor_entry_yaw);
+        let knob_yaw = f64::from(cp.knob_yaw_tolerance);
         let pairs = std::mem::take(&mut self.pairs);
         for &(i, j) in &pairs {
             for (a, b) in [(i, j), (j, i)] {
@@ -438,18 +474,17 @@ impl Mechanics {
                 }
                 let (ba, bb) = (&bodies[a], &bodies[b]);
                 let phi = wrap(ba.pose.yaw - bb.pose.yaw);
-                if phi.abs() > ANCHOR_ENTRY_YAW && phi.abs() > KNOB_YAW_TOLERANCE {
+                if phi.abs() > entry_yaw && phi.abs() > knob_yaw {
                     continue;
                 }
                 let (fa, fb) = (ba.frame(), bb.frame());
-                // Anchor of a into the opening of b.
-                if !self.anchor_busy(a) && !self.opening_busy(b) && phi.abs() <= ANCHOR_ENTRY_YAW {
-                    let h = fb.inverse_apply(fa.apply(sh.head));
-                    let face = sh.opening[0];
-                    if h[0] <= face + 1e-4
-                        && h[0] >= face - sh.depth
-                        && (h[1] - sh.opening[1]).abs() <= self.c.align
-                    {
+                // Anchor of a into the opening of b (THESIS 4.2.2).
+                if !self.anchor_busy(a) && !self.opening_busy(b) {
+                    let probe = AnchorProbe {
+                        head: fb.inverse_apply(fa.apply(sh.head)),
+                        yaw: phi,
+                    };
+                    if cp.anchor_at_mouth(&g, &probe, 1.0) {
                         self.links.push(Link {
                             kind: LinkKind::Anchor,
                             a,
@@ -457,25 +492,35 @@ impl Mechanics {
                             state: LinkState::Inserting,
                             legs: [true, true],
                             swing: 0.0,
+                            offset: [0.0; 2],
                         });
                         continue;
                     }
                 }
-                // Left knob of a into the right hole of b (b on a's left).
-                if phi.abs() <= KNOB_YAW_TOLERANCE {
-                    let k = fb.inverse_apply(fa.apply(sh.knob));
-                    let hole = [sh.knob[0], -sh.knob[1]];
-                    let d = sub(k, hole);
-                    if d[0].abs() <= self.c.knob && d[1].abs() <= 0.0015 {
-                        self.links.push(Link {
-                            kind: LinkKind::Knob,
-                            a,
-                            b,
-                            state: LinkState::Coupled,
-                            legs: [true, true],
-                            swing: 0.0,
-                        });
-                        events.push(LinkEvent::Coupled(LinkKind::Knob, a, b));
+                // A left knob of a into a right hole of b (b on a's left), THESIS Fig 5.12.
+                if phi.abs() <= knob_yaw {
+                    'knobs: for kx in [-sh.side_x, sh.side_x] {
+                        let k = fb.inverse_apply(fa.apply([kx, sh.knob[1]]));
+                        for hx in [-sh.side_x, sh.side_x] {
+                            let probe = KnobProbe {
+                                along: k[0] - hx,
+                                gap: -sh.knob[1] - k[1],
+                                yaw: phi,
+                            };
+                            if cp.knob_seated(&probe, 1.0) {
+                                self.links.push(Link {
+                                    kind: LinkKind::Knob,
+                                    a,
+                                    b,
+                                    state: LinkState::Coupled,
+                                    legs: [true, true],
+                                    swing: 0.0,
+                                    offset: [kx - hx, 2.0 * sh.knob[1]],
+                                });
+                                events.push(LinkEvent::Coupled(LinkKind::Knob, a, b));
+                                break 'knobs;
+                            }
+                        }
                     }
                 }
             }
@@ -500,12 +545,13 @@ impl Mechanics {
             if !bi.active || !bj.active {
                 continue;
             }
-            // Body against body, except inside an anchor coupling (the pin governs).
+            // Body against body, except inside an anchor pair that is inserting or coupled
+            // (the anchor and the opening's guide govern) and a knob pair (rigid).
             let skip_bodies = matches!(
                 link,
                 Some(Link {
                     kind: LinkKind::Anchor,
-                    state: LinkState::Coupled,
+                    state: LinkState::Coupled | LinkState::Inserting,
                     ..
                 }) | Some(Link {
                     kind: LinkKind::Knob,
@@ -573,8 +619,12 @@ impl Mechanics {
             };
             match (l.kind, l.state) {
                 (LinkKind::Knob, _) => {
-                    // Rigid: b sits at a ∘ (0, 2·knob_y, 0).
-                    let offset = [0.0, 2.0 * sh.knob[1]];
+                    // Rigid: b sits at a ∘ (offset, 0).
+                    let offset = if l.offset[0].is_nan() {
+                        [0.0, 2.0 * sh.knob[1]]
+                    } else {
+                        l.offset
+                    };
                     let phi = wrap(ba.pose.yaw - bb.pose.yaw);
                     let itot = 1.0 / ba.inertia + 1.0 / bb.inertia;
                     ba.pose.yaw -= phi / ba.inertia / itot;
@@ -633,6 +683,7 @@ impl Mechanics {
     fn update_links(&mut self, bodies: &[Body], events: &mut Vec<LinkEvent>) {
         let sh = self.shape;
         let c = self.c;
+        let (g, cp) = (self.geometry, self.coupling);
         self.links.retain_mut(|l| {
             let (ba, bb) = (&bodies[l.a], &bodies[l.b]);
             if l.kind != LinkKind::Anchor {
@@ -645,7 +696,7 @@ impl Mechanics {
                     if h[0] > sh.opening[0] + 5e-4 {
                         return false; // backed out before it was in
                     }
-                    if h[0] <= sh.pin()[0] + 1e-3 {
+                    if cp.anchor_seated(&g, &AnchorProbe { head: h, yaw: phi }, 1.0) {
                         l.state = LinkState::Coupled;
                         l.legs = [true, true];
                         events.push(LinkEvent::Coupled(LinkKind::Anchor, l.a, l.b));

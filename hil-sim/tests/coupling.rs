@@ -38,7 +38,11 @@ fn pair(gap: f64, dy: f64, coupled: bool) -> Scenario {
 }
 
 fn approach(dy: f64) -> World {
-    let mut w = World::new(&pair(0.02, dy, false), &key()).expect("world");
+    approach_from(pair(0.02, dy, false))
+}
+
+fn approach_from(s: Scenario) -> World {
+    let mut w = World::new(&s, &key()).expect("world");
     let mut host = MiniHost::new(key());
     connect(&mut w, &mut host, 2.0);
     // Robot 1 drives forward into robot 2's anchor; robot 2 holds still; both stop once
@@ -167,4 +171,51 @@ fn coupled_groups_move_together() {
         (p2.x - p1.x - 0.05).abs() < 0.006 && (p2.y - p1.y).abs() < 0.003,
         "{p1:?} {p2:?}"
     );
+}
+
+#[test]
+fn an_anchor_yawed_within_the_entry_angle_still_seats() {
+    // Robot 2 turned by 0.2 rad about its anchor head, the head 1 mm aside of the opening
+    // axis: the front corner of robot 1 would touch robot 2's back face 5 mm before the
+    // seat if the bodies blocked each other; the anchor's guide governs instead.
+    let mut s = pair(0.02, 0.0, false);
+    let yaw: f64 = 0.2;
+    let head = [0.05 + 0.02 - 0.032, 0.001];
+    s.robots[1].pose = [
+        head[0] + 0.032 * yaw.cos(),
+        head[1] + 0.032 * yaw.sin(),
+        yaw,
+    ];
+    let w = approach_from(s);
+    assert!(w.ground_truth().are_coupled(2, 1), "links {:?}", w.links());
+}
+
+/// Robot 2 pressed onto robot 1's left side, shifted `dx` forward.
+fn side_by_side(dx: f64) -> World {
+    let mut s = pair(0.0, 0.0, false);
+    s.robots[1].pose = [dx, 0.0505, 0.0];
+    let mut w = World::new(&s, &key()).expect("world");
+    // Pressed together by hand (robots cannot drive sideways).
+    w.place(2, puzzlebot_sim::Pose::new(dx, 0.0499, 0.0));
+    w.run_for(50_000);
+    w
+}
+
+#[test]
+fn a_half_body_offset_puts_one_knob_into_one_hole_as_in_a_mesh() {
+    // THESIS 5.2.2: mesh rows are offset by half a body; robot 1's front-left knob meets
+    // robot 2's back-right hole (THESIS Fig 5.12 connection points at ±12.5 mm).
+    let mut w = side_by_side(0.0255);
+    assert!(w.ground_truth().are_coupled(1, 2), "{:?}", w.links());
+    // Rigid at the offset once in: pushing robot 2 back along x does not slide it.
+    w.run_for(200_000);
+    let t = w.ground_truth();
+    let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
+    let rel = p1.inverse_apply([p2.x, p2.y]);
+    assert!(
+        (rel[0] - 0.025).abs() < 1e-3 && (rel[1] - 0.05).abs() < 1e-3,
+        "{rel:?}"
+    );
+    // Between the connection points (6 mm off either): no knob fits.
+    assert!(!side_by_side(0.019).ground_truth().are_coupled(1, 2));
 }

@@ -1,5 +1,12 @@
-//! Anchor and knob mechanics (THESIS 4.2.2, 4.4.1, 5.5.3, 5.5.6; DESIGN.md §8).
+//! Anchor and knob mechanics (THESIS 4.2.2, 4.4.1, 5.5.3, 5.5.6; DESIGN.md §8), and the one
+//! definition of when a coupling forms: the simulator's mechanics and the host's pair status
+//! machine (THESIS Algorithm 8) both call the predicates below, so "inserted" on the host
+//! and "coupled" in the simulator are the same event.
+//!
+//! The predicates take points already expressed in the frame of the robot with the opening
+//! (hole), so they need no trigonometry and build `no_std`.
 
+use crate::geometry::Geometry;
 use serde::{Deserialize, Serialize};
 
 /// Limits and tolerances of the passive couplings.
@@ -18,8 +25,21 @@ pub struct Coupling {
     pub anchor_yaw_range: f32,
     /// Travel of a coupled anchor (m). THESIS 4.2.2: 5 mm.
     pub anchor_travel: f32,
+    /// Relative yaw at which an anchor head can still start entering an opening (rad).
+    /// Not a THESIS number: the opening's guide is ±20° wide in the CAD of Fig 4.3; 0.35 rad.
+    pub anchor_entry_yaw: f32,
+    /// The anchor's legs snap into the slits when its head is within this distance of its
+    /// seat (m): the "head inserted" of THESIS Algorithm 8. Estimated from the slit width
+    /// (Fig 4.3): 1 mm.
+    pub anchor_seat: f32,
     /// Knob alignment needed to couple (m). THESIS 5.2.3: < 1 mm.
     pub knob_align_tolerance: f32,
+    /// Heading agreement needed for a knob to slide in (rad): the 1 mm fit over the 25 mm
+    /// between the two knobs of a side, atan(1/25) ≈ 0.04.
+    pub knob_yaw_tolerance: f32,
+    /// A knob clicks in when the two side faces are within this gap (m): the knob's hooks
+    /// (THESIS 2.4.1: 1.5 mm hook width).
+    pub knob_seat_gap: f32,
     /// Force one knob holds (N). THESIS 5.5.3: ≥ 3.2 N (sensor limit).
     pub knob_hold_force: f32,
     /// Push force of one robot at top speed (N). THESIS 4.4.1, 5.5.2: 0.5–0.72.
@@ -35,9 +55,137 @@ impl Default for Coupling {
             anchor_hold_force: 0.5 * 9.81,
             anchor_yaw_range: 0.5,
             anchor_travel: 0.005,
+            anchor_entry_yaw: 0.35,
+            anchor_seat: 0.001,
             knob_align_tolerance: 0.001,
+            knob_yaw_tolerance: 0.04,
+            knob_seat_gap: 0.0015,
             knob_hold_force: 3.2,
             robot_push_force: 0.5,
         }
+    }
+}
+
+/// Where an anchor head is relative to an opening: `head` is the anchor head of robot `a` in
+/// the body frame of robot `b` (the one with the opening), `yaw` = θ_a − θ_b wrapped to (−π, π].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AnchorProbe {
+    /// Anchor head of `a` in `b`'s frame (m).
+    pub head: [f64; 2],
+    /// Relative yaw θ_a − θ_b (rad), wrapped.
+    pub yaw: f64,
+}
+
+/// Where a knob is relative to a hole: the knob's root point on `a`'s side face, in the body
+/// frame of robot `b` (the one with the hole), minus the hole's root point on `b`'s face.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KnobProbe {
+    /// Offset along `b`'s side face (m).
+    pub along: f64,
+    /// Gap between the faces along the hole's outward normal (m); 0 = faces touching.
+    pub gap: f64,
+    /// Relative yaw θ_a − θ_b (rad), wrapped.
+    pub yaw: f64,
+}
+
+impl Coupling {
+    /// Depth of the anchor head inside the opening when seated (m): how far the head stands
+    /// behind its robot's back face (`Geometry::anchor_head` vs the body length).
+    pub fn anchor_depth(g: &Geometry) -> f64 {
+        (-f64::from(g.anchor_head[0]) - 0.5 * f64::from(g.length)).max(0.0)
+    }
+
+    /// The head is at the mouth of the opening (at the front face or up to its seat inside),
+    /// laterally within `anchor_align_tolerance · k` and yawed within `anchor_entry_yaw`:
+    /// pushing now guides it in. `k` ≥ 1 widens the lateral tolerance (hysteresis).
+    pub fn anchor_at_mouth(&self, g: &Geometry, p: &AnchorProbe, k: f64) -> bool {
+        let face = f64::from(g.anchor_opening[0]);
+        let depth = Self::anchor_depth(g);
+        p.head[0] <= face + 1e-4
+            && p.head[0] >= face - depth - f64::from(self.anchor_seat)
+            && (p.head[1] - f64::from(g.anchor_opening[1])).abs()
+                <= f64::from(self.anchor_align_tolerance) * k
+            && p.yaw.abs() <= f64::from(self.anchor_entry_yaw)
+    }
+
+    /// The head has reached its seat (within `anchor_seat · k`): the legs are in the slits
+    /// and the anchor is coupled (THESIS 4.2.2; Algorithm 8 "head inserted").
+    pub fn anchor_seated(&self, g: &Geometry, p: &AnchorProbe, k: f64) -> bool {
+        let face = f64::from(g.anchor_opening[0]);
+        let seat = face - Self::anchor_depth(g);
+        p.head[0] <= seat + f64::from(self.anchor_seat) * k
+            && (p.head[1] - f64::from(g.anchor_opening[1])).abs()
+                <= f64::from(self.anchor_align_tolerance) * k
+            && p.yaw.abs() <= f64::from(self.anchor_yaw_range) * k
+    }
+
+    /// A coupled anchor is still held: the head is inside the anchor's travel of its seat
+    /// (`anchor_travel · k`) and the yaw inside the range (THESIS 4.2.2: ±0.5 rad, 5 mm).
+    pub fn anchor_held(&self, g: &Geometry, p: &AnchorProbe, k: f64) -> bool {
+        let face = f64::from(g.anchor_opening[0]);
+        let seat = face - Self::anchor_depth(g);
+        p.head[0] <= seat + f64::from(self.anchor_travel) * k
+            && (p.head[1] - f64::from(g.anchor_opening[1])).abs()
+                <= f64::from(self.anchor_align_tolerance) * k
+            && p.yaw.abs() <= f64::from(self.anchor_yaw_range) * k
+    }
+
+    /// A knob is in front of its hole: along within `knob_align_tolerance · k`, the faces
+    /// less than a knob length (plus the tolerance) apart and not overlapping, and the
+    /// headings within `knob_yaw_tolerance · k` (THESIS 5.5.5 augmented knob point).
+    pub fn knob_aligned(&self, g: &Geometry, p: &KnobProbe, k: f64) -> bool {
+        let e = f64::from(self.knob_align_tolerance) * k;
+        p.along.abs() <= e
+            && p.gap <= f64::from(g.knob_length) + e
+            && p.gap >= -e
+            && p.yaw.abs() <= f64::from(self.knob_yaw_tolerance) * k
+    }
+
+    /// The knob clicks into (stays in) the hole: along within `knob_align_tolerance · k`,
+    /// faces within `knob_seat_gap · k`, headings within `knob_yaw_tolerance · k`.
+    pub fn knob_seated(&self, p: &KnobProbe, k: f64) -> bool {
+        p.along.abs() <= f64::from(self.knob_align_tolerance) * k
+            && p.gap.abs() <= f64::from(self.knob_seat_gap) * k
+            && p.yaw.abs() <= f64::from(self.knob_yaw_tolerance) * k
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn probe(x: f64, y: f64, yaw: f64) -> AnchorProbe {
+        AnchorProbe { head: [x, y], yaw }
+    }
+
+    #[test]
+    fn anchor_enters_at_the_mouth_and_seats_seven_mm_in() {
+        let (g, c) = (Geometry::default(), Coupling::default());
+        assert!((Coupling::anchor_depth(&g) - 0.007).abs() < 1e-6);
+        // At the front face, 3 mm aside: may enter, not seated.
+        assert!(c.anchor_at_mouth(&g, &probe(0.025, 0.003, 0.1), 1.0));
+        assert!(!c.anchor_seated(&g, &probe(0.025, 0.003, 0.1), 1.0));
+        // 4 mm aside or 0.4 rad yawed: may not enter.
+        assert!(!c.anchor_at_mouth(&g, &probe(0.025, 0.004, 0.0), 1.0));
+        assert!(!c.anchor_at_mouth(&g, &probe(0.025, 0.0, 0.4), 1.0));
+        // 1 mm outside the face: not yet at the mouth.
+        assert!(!c.anchor_at_mouth(&g, &probe(0.026, 0.0, 0.0), 1.0));
+        // 6.5 mm in: seated (within 1 mm of the 7 mm seat); 5 mm in: not yet.
+        assert!(c.anchor_seated(&g, &probe(0.0185, 0.0, 0.0), 1.0));
+        assert!(!c.anchor_seated(&g, &probe(0.020, 0.0, 0.0), 1.0));
+        // Coupled: held over the 5 mm travel, lost beyond it.
+        assert!(c.anchor_held(&g, &probe(0.022, 0.0, 0.45), 1.0));
+        assert!(!c.anchor_held(&g, &probe(0.0245, 0.0, 0.0), 1.0));
+    }
+
+    #[test]
+    fn knobs_need_a_sub_millimetre_fit() {
+        let (g, c) = (Geometry::default(), Coupling::default());
+        let p = |along, gap, yaw| KnobProbe { along, gap, yaw };
+        assert!(c.knob_aligned(&g, &p(0.0008, 0.003, 0.0), 1.0));
+        assert!(!c.knob_aligned(&g, &p(0.0012, 0.003, 0.0), 1.0));
+        assert!(!c.knob_aligned(&g, &p(0.0, 0.003, 0.05), 1.0));
+        assert!(c.knob_seated(&p(0.0008, 0.001, 0.03), 1.0));
+        assert!(!c.knob_seated(&p(0.0008, 0.002, 0.0), 1.0));
     }
 }
