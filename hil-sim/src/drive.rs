@@ -261,7 +261,11 @@ impl BatteryModel {
 /// (v, Ω, v_y), solved in closed form (adjugate / determinant); the wheels follow by
 /// back-substitution. Up to four passes re-solve when a wheel saturates or its friction
 /// would reverse it.
-pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) {
+///
+/// Returns the new body velocities (v, Ω, v_y), the same values as `st.v`, `st.omega`,
+/// `st.vy` (handed back in registers so a caller integrating the pose does not reload
+/// them from memory right after they were stored).
+pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) -> [f64; 3] {
     let md = model;
     let vbat = st.battery_v;
     let half = md.base * 0.5;
@@ -418,6 +422,7 @@ pub fn step(model: &DriveModel, st: &mut DriveState, cmd: [Bridge; 2], dt: f64) 
     let i_total = md.battery.idle + st.current[0].abs() + st.current[1].abs();
     st.soc = (st.soc - i_total * dt * md.battery.inv_capacity).max(0.0);
     st.battery_v = (md.battery.open_circuit(st.soc) - i_total * md.battery.resistance).max(0.0);
+    [v, om, vy]
 }
 
 #[cfg(test)]

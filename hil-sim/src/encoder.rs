@@ -21,6 +21,9 @@ pub struct EdgeEvent {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct QuadEncoder {
     edges_per_rev: f64,
+    /// Edges per radian (`edges_per_rev / 2π`) and its inverse, precomputed.
+    per_rad: f64,
+    rad_per_edge: f64,
     /// Edge index of the current state (floor of angle·edges/2π).
     count: i64,
 }
@@ -35,13 +38,26 @@ pub fn levels(count: i64) -> (bool, bool) {
     }
 }
 
+/// `x.floor() as i64` without a libm call (the default x86-64 target has no SSE4.1
+/// `roundsd`, so `f64::floor` is a function call in the simulator's hottest loop).
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64; // truncates toward zero (saturating)
+    if (t as f64) > x {
+        t - 1
+    } else {
+        t
+    }
+}
+
 impl QuadEncoder {
     /// An encoder with `edges_per_rev` edges per wheel revolution at wheel angle `angle`.
     pub fn new(edges_per_rev: u16, angle: f64) -> QuadEncoder {
         let e = f64::from(edges_per_rev.max(1));
         QuadEncoder {
             edges_per_rev: e,
-            count: (angle * e / TAU).floor() as i64,
+            per_rad: e / TAU,
+            rad_per_edge: TAU / e,
+            count: floor_i64(angle * e / TAU),
         }
     }
 
@@ -65,7 +81,7 @@ impl QuadEncoder {
         t1_us: u64,
         mut emit: impl FnMut(EdgeEvent),
     ) {
-        let target = (a1 * self.edges_per_rev / TAU).floor() as i64;
+        let target = floor_i64(a1 * self.per_rad);
         if target == self.count {
             return;
         }
@@ -82,7 +98,7 @@ impl QuadEncoder {
             } else {
                 (self.count - 1, self.count)
             };
-            let ang = boundary as f64 * TAU / self.edges_per_rev;
+            let ang = boundary as f64 * self.rad_per_edge;
             let frac = if da.abs() > 0.0 {
                 ((ang - a0) / da).clamp(0.0, 1.0)
             } else {
@@ -104,6 +120,15 @@ impl QuadEncoder {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_matches_f64_floor() {
+        for x in [
+            -2.5, -2.0, -1e-12, -0.0, 0.0, 1e-12, 0.999_999, 1.0, 7.5, -7.5, 1e15, -1e15,
+        ] {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
+    }
 
     #[test]
     fn one_revolution_gives_edges_per_rev_edges_in_time_order() {

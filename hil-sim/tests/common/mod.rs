@@ -37,11 +37,12 @@ impl MiniHost {
 
     /// Handle a datagram from robot `id`; returns a reply to send back (a welcome).
     pub fn receive(&mut self, id: RobotId, frame: &[u8]) -> Option<Vec<u8>> {
-        let key = self.key.robot_key(id);
+        // The robot key is derived (an HMAC) only for a robot seen for the first time.
+        let fleet = &self.key;
         let s = self
             .sessions
             .entry(id)
-            .or_insert_with(|| HostSession::new(id, key));
+            .or_insert_with(|| HostSession::new(id, fleet.robot_key(id)));
         self.nonce += 1;
         let n = self.nonce;
         let mut out = [0u8; MAX_DATAGRAM];
@@ -76,7 +77,9 @@ impl MiniHost {
         let mut out = [0u8; MAX_DATAGRAM];
         let n = s.send(msg, &mut out).ok()?;
         let v = out[..n].to_vec();
-        self.last_sent.insert(id, v.clone());
+        let last = self.last_sent.entry(id).or_default();
+        last.clear();
+        last.extend_from_slice(&v);
         Some(v)
     }
 
