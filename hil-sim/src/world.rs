@@ -249,6 +249,8 @@ pub struct World {
     mocap_out: VecDeque<MocapFrame>,
     outbox: Vec<(RobotId, Vec<u8>)>,
     scratch: Vec<(u16, f64, f64, f64, f64)>,
+    /// Per-step scratch: wheel angles before and body velocities after each drive step.
+    plant_out: Vec<([f64; 2], [f64; 3])>,
 }
 
 fn support_points(p: &RobotParams) -> Vec<V2> {
@@ -348,6 +350,7 @@ impl World {
             mocap_out: VecDeque::new(),
             outbox: Vec::new(),
             scratch: Vec::new(),
+            plant_out: Vec::new(),
         })
     }
 
@@ -376,8 +379,11 @@ impl World {
         let dt = self.step_us as f64 * 1e-6;
         let t0 = self.time_us;
         let t1 = t0 + self.step_us;
-        // 1. Plants and encoders.
-        for (r, body) in self.robots.iter_mut().zip(self.bodies.iter_mut()) {
+        // 1. Plants (a tight loop of independent robots, so the CPU overlaps their
+        //    dependency chains), then encoders and poses.
+        let mut plant = std::mem::take(&mut self.plant_out);
+        plant.clear();
+        for r in self.robots.iter_mut() {
             let cmd = [
                 Bridge {
                     in1: r.outputs.left.in1,
@@ -389,7 +395,15 @@ impl World {
                 },
             ];
             let a0 = r.drive.angle;
-            let [v, omega, vy] = drive::step(&r.model, &mut r.drive, cmd, dt);
+            let vel = drive::step(&r.model, &mut r.drive, cmd, dt);
+            plant.push((a0, vel));
+        }
+        for ((r, body), &(a0, [v, omega, vy])) in self
+            .robots
+            .iter_mut()
+            .zip(self.bodies.iter_mut())
+            .zip(plant.iter())
+        {
             for s in 0..2 {
                 let enc = &mut r.enc[s];
                 let online = r.fw.is_some();
@@ -421,6 +435,7 @@ impl World {
             body.pose = r.pose;
             body.trig = r.trig;
         }
+        self.plant_out = plant;
         // 2. Contacts and couplings, with the projection fed back into velocities.
         self.link_events.clear();
         self.mech.resolve(&mut self.bodies, &mut self.link_events);
