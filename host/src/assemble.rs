@@ -53,14 +53,6 @@ pub fn shape_info_text(
     })
 }
 
-/// Factor on the coordinator's anchor insertion tolerance (5 mm, the anchor's travel) used by
-/// the coupling experiment: with the full 5 mm a pair counts as connected (and alignment
-/// stops pushing) before the simulator's anchor has entered the opening. Measured with
-/// `puzzlebot experiment coupling --runs 1`: success 32 % at 1.0, 56 % at 0.6, 64 % at 0.3.
-/// The host keeps 1.0: at 0.3 the real-time e2e runs got worse (pre-coupled pairs with the
-/// anchor's play no longer count as connected and are pushed apart; measured 0 of 5 passing).
-pub const EXPERIMENT_INSERT_FACTOR: f64 = 0.3;
-
 /// One stop (or limit) decided by the stability gate.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GateStop {
@@ -139,26 +131,12 @@ impl AssemblyController {
         params: FleetParams,
         gate: GateConfig,
     ) -> anyhow::Result<Self> {
-        Self::with_insert_factor(scenario, params, gate, 1.0)
-    }
-
-    /// As [`AssemblyController::new`], with the anchor insertion tolerance scaled by `factor`.
-    pub fn with_insert_factor(
-        scenario: AsmScenario,
-        params: FleetParams,
-        gate: GateConfig,
-        factor: f64,
-    ) -> anyhow::Result<Self> {
         let g = params.non_pilot.geometry;
-        let mut cfg = CoordinatorConfig {
+        let cfg = CoordinatorConfig {
             tolerances: PairTolerances::from_params(&g, &params.non_pilot.coupling),
             dt: 1.0 / f64::from(params.rates.mpc_hz).max(1e-3),
             ..CoordinatorConfig::default()
         };
-        if !(factor.is_finite() && factor > 0.0) {
-            anyhow::bail!("insertion tolerance factor must be finite and > 0, got {factor}");
-        }
-        cfg.tolerances.anchor_insert *= factor;
         let coordinator = Coordinator::new(g, cfg);
         let cfg = MpcConfig {
             geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),

@@ -19,7 +19,7 @@ use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, 
 use puzzlebot_sim::{RobotSpec, Scenario, World};
 use serde::Serialize;
 
-use crate::assemble::{AssemblyController, GateConfig, EXPERIMENT_INSERT_FACTOR};
+use crate::assemble::{AssemblyController, GateConfig};
 use crate::control::{Controller, FleetView, RobotView};
 use crate::drive::{DriveMap, PoseSample, Twist};
 use crate::report::RunFolder;
@@ -179,12 +179,7 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
     }
     let asm =
         AsmScenario::from_toml_str(Path::new("coupling.toml"), FORM, &params.non_pilot.geometry)?;
-    let mut ctl = AssemblyController::with_insert_factor(
-        asm,
-        params.clone(),
-        GateConfig::default(),
-        EXPERIMENT_INSERT_FACTOR,
-    )?;
+    let mut ctl = AssemblyController::new(asm, params.clone(), GateConfig::default())?;
     ctl.settle = 0.0;
     let maps: BTreeMap<RobotId, DriveMap> = scenario
         .robots
@@ -471,4 +466,29 @@ fn plot(path: &Path, s: &CouplingStats) -> Result<(), String> {
         .draw()
         .map_err(|e| e.to_string())?;
     root.present().map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coupling_experiment_meets_the_thesis_rates() {
+        // One run per start position (25 runs) keeps the test quick; the command runs 5.
+        let s = stats(run_all(1, 2).expect("experiment runs"));
+        assert_eq!(s.runs.len(), 25);
+        assert!(
+            s.aligned_within_5s >= THESIS_ALIGNED_WITHIN_5S,
+            "{}",
+            describe(&s)
+        );
+        assert!(s.success >= THESIS_SUCCESS_WITHIN_60S, "{}", describe(&s));
+        // Every success is a coupling in the simulator's ground truth, reached after t1.
+        for r in s.runs.iter().filter(|r| r.t2.is_some()) {
+            assert!(
+                r.coupled && r.t1.is_some_and(|t1| t1 <= r.t2.unwrap_or(0.0)),
+                "{r:?}"
+            );
+        }
+    }
 }

@@ -1,10 +1,12 @@
 //! Augmented connection pairs (THESIS Algorithm 7) and their status machine
 //! decoupled → head aligned → head inserted → connected (THESIS Algorithm 8, 4.3.5, 5.5.5),
-//! decided from measured poses with tolerances from the shared parameter set.
+//! decided from measured poses with tolerances from the shared parameter set. "Head
+//! inserted" is the simulator's coupling event: both call the predicates of
+//! [`puzzlebot_params::coupling`] ([`Coupling::anchor_seated`], [`Coupling::knob_seated`]).
 
 use crate::assign::PlannedPair;
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
-use puzzlebot_params::coupling::Coupling;
+use puzzlebot_params::coupling::{AnchorProbe, Coupling, KnobProbe};
 use puzzlebot_params::geometry::Geometry;
 use serde::{Deserialize, Serialize};
 
@@ -38,11 +40,11 @@ impl std::fmt::Display for PairStatus {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PairTolerances {
+    /// The coupling mechanics: when a head is seated / still held (shared with the
+    /// simulator, [`puzzlebot_params::coupling`]).
+    pub coupling: Coupling,
     /// Anchor head to opening alignment (m). THESIS 5.2.3: 3.5 mm (`Coupling::anchor_align_tolerance`).
     pub anchor_align: f64,
-    /// Anchor base to opening distance when inserted (m): the coupled anchor's travel,
-    /// THESIS 4.2.2: 5 mm (`Coupling::anchor_travel`).
-    pub anchor_insert: f64,
     /// Relative yaw allowed for an anchor pair (rad). THESIS 4.2.2: ±0.5 (`Coupling::anchor_yaw_range`).
     pub anchor_yaw: f64,
     /// Knob alignment and insertion (m). THESIS 5.2.3: < 1 mm (`Coupling::knob_align_tolerance`).
@@ -75,8 +77,8 @@ impl PairTolerances {
     pub fn from_params(g: &Geometry, c: &Coupling) -> Self {
         let knob_align = f64::from(c.knob_align_tolerance);
         PairTolerances {
+            coupling: *c,
             anchor_align: f64::from(c.anchor_align_tolerance),
-            anchor_insert: f64::from(c.anchor_travel),
             anchor_yaw: f64::from(c.anchor_yaw_range),
             knob_align,
             knob_yaw: (knob_align / (2.0 * f64::from(g.side_point_x)).max(1e-6)).atan(),
@@ -104,6 +106,9 @@ pub struct PairMeasure {
     pub point_gap: f64,
     /// Yaw error: (θ_a − θ_b) − target relative yaw, wrapped (rad).
     pub yaw_error: f64,
+    /// Augmented head of `a` (anchor head / knob tip) in `b`'s body frame (m).
+    #[serde(default)]
+    pub head_in_b: [f64; 2],
 }
 
 /// Measure a pair (THESIS 5.11–5.15: `a`'s points expressed in `b`'s body frame).
@@ -133,6 +138,7 @@ pub fn measure(
         point_along,
         point_gap,
         yaw_error: wrap_angle(pose_a.yaw - pose_b.yaw - relative_yaw),
+        head_in_b: head,
     }
 }
 
@@ -161,20 +167,47 @@ pub fn is_aligned(kind: PairType, m: &PairMeasure, t: &PairTolerances, k: f64) -
     }
 }
 
-/// Is the anchor (knob) inserted, with tolerances scaled by `k`? `a`'s connection point meets
-/// `b`'s (THESIS Algorithm 5: C_i in polygon(R_j, ε)).
-pub fn is_inserted(kind: PairType, m: &PairMeasure, t: &PairTolerances, k: f64) -> bool {
+/// Is the anchor (knob) seated, with tolerances scaled by `k`: the simulator's coupling
+/// event ([`Coupling::anchor_seated`]: head within `anchor_seat` of its seat 7 mm inside the
+/// opening; [`Coupling::knob_seated`]: knob root within 1 mm of the hole, faces touching).
+/// THESIS Algorithm 5: C_i in polygon(R_j, ε).
+pub fn is_inserted(
+    kind: PairType,
+    m: &PairMeasure,
+    t: &PairTolerances,
+    g: &Geometry,
+    k: f64,
+) -> bool {
     match kind {
-        PairType::AnchorOpening => {
-            m.point_along <= t.anchor_align * k
-                && m.point_gap.abs() <= t.anchor_insert * k
-                && m.yaw_error.abs() <= t.anchor_yaw * k
-        }
-        PairType::KnobHole => {
-            m.point_along <= t.knob_align * k
-                && m.point_gap.abs() <= t.knob_align * k
-                && m.yaw_error.abs() <= t.knob_yaw * k
-        }
+        PairType::AnchorOpening => t.coupling.anchor_seated(g, &anchor_probe(m), k),
+        PairType::KnobHole => t.coupling.knob_seated(&knob_probe(m), k),
+    }
+}
+
+/// Is a seated anchor (knob) still held, with tolerances scaled by `k`: an anchor may slide
+/// out over its travel and yaw over its range (THESIS 4.2.2, [`Coupling::anchor_held`]); a
+/// knob stays seated.
+pub fn is_held(kind: PairType, m: &PairMeasure, t: &PairTolerances, g: &Geometry, k: f64) -> bool {
+    match kind {
+        PairType::AnchorOpening => t.coupling.anchor_held(g, &anchor_probe(m), k),
+        PairType::KnobHole => t.coupling.knob_seated(&knob_probe(m), k),
+    }
+}
+
+/// The anchor head in the opening robot's frame (anchor pairs end at `b`'s front).
+fn anchor_probe(m: &PairMeasure) -> AnchorProbe {
+    AnchorProbe {
+        head: m.head_in_b,
+        yaw: m.yaw_error,
+    }
+}
+
+/// The knob root against the hole root along `b`'s side.
+fn knob_probe(m: &PairMeasure) -> KnobProbe {
+    KnobProbe {
+        along: m.point_along,
+        gap: m.point_gap,
+        yaw: m.yaw_error,
     }
 }
 
@@ -259,14 +292,14 @@ impl TrackedPair {
                     }
                 }
                 PairStatus::HeadAligned => {
-                    if is_inserted(kind, &m, tol, 1.0) {
+                    if is_inserted(kind, &m, tol, g, 1.0) {
                         go(self, PairStatus::HeadInserted);
                     } else if !is_aligned(kind, &m, tol, h) {
                         go(self, PairStatus::Decoupled);
                     }
                 }
                 PairStatus::HeadInserted => {
-                    if !is_inserted(kind, &m, tol, h) {
+                    if !is_held(kind, &m, tol, g, h) {
                         let to = if is_aligned(kind, &m, tol, h) {
                             PairStatus::HeadAligned
                         } else {
@@ -278,7 +311,7 @@ impl TrackedPair {
                     }
                 }
                 PairStatus::Connected => {
-                    if !is_inserted(kind, &m, tol, tol.release.max(h)) {
+                    if !is_held(kind, &m, tol, g, tol.release.max(h)) {
                         go(self, PairStatus::Decoupled);
                     }
                 }
@@ -353,7 +386,7 @@ mod tests {
         assert_eq!(tr.len(), 1);
         assert_eq!(p.status, PairStatus::HeadAligned);
         // Pushed in: inserted, not yet connected.
-        let (a, b) = anchor_poses(0.001, 0.0, 0.05);
+        let (a, b) = anchor_poses(0.0005, 0.0, 0.05);
         p.update(0.2, &a, &b, &g, &tol);
         assert_eq!(p.status, PairStatus::HeadInserted);
         p.update(0.3, &a, &b, &g, &tol);
