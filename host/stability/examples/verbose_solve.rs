@@ -1,9 +1,10 @@
 //! Time the phases of one benchmark solve and print Clarabel's own log:
-//! `cargo run --release -p puzzlebot-stability --example verbose_solve -- chain 100`.
+//! `cargo run --release -p puzzlebot-stability --example verbose_solve -- chain 100`
+//! (relaxed program in the dual form; `DIRECT=1` for the direct form).
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSolver, IPSolver};
-use puzzlebot_stability::bench_problems::Family;
+use puzzlebot_stability::bench_problems::{thread_cpu_seconds, Family};
 use puzzlebot_stability::socp;
 use std::time::Instant;
 
@@ -20,13 +21,18 @@ fn main() {
         .unwrap_or(5);
     for rep in 0..reps {
         let t0 = Instant::now();
+        let c0 = thread_cpu_seconds().unwrap_or(0.0);
         let r = a.resolve().expect("valid");
-        let p = socp::build(&r, false);
+        let p = if std::env::var("DIRECT").is_ok() {
+            socp::build(&r, false)
+        } else {
+            puzzlebot_stability::dual::build_relaxed_with(&r, std::env::var("NO_PAD").is_err())
+        };
         let t1 = Instant::now();
         let mut s = if std::env::var("FULL_IR").is_ok() {
             socp::settings()
         } else {
-            socp::fast_settings()
+            socp::fast_settings_for(&p)
         };
         s.verbose = rep + 1 == reps || std::env::var("VERB").is_ok();
         if std::env::var("NO_EQ").is_ok() {
@@ -56,20 +62,33 @@ fn main() {
         if let Some(v) = env("EQ_ITERS") {
             s.equilibrate_max_iter = v as u32;
         }
+        if let Some(v) = env("THREADS") {
+            s.max_threads = v as u32;
+        }
+        if let Ok(m) = std::env::var("METHOD") {
+            s.direct_solve_method = m;
+        }
+        if std::env::var("IR_OFF").is_ok() {
+            s.iterative_refinement_enable = false;
+        }
         if std::env::var("NO_PRESOLVE").is_ok() {
             s.presolve_enable = false;
         }
         let pm = CscMatrix::zeros((p.n, p.n));
         let mut solver = DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, s).expect("setup");
         let t2 = Instant::now();
+        let c2 = thread_cpu_seconds().unwrap_or(0.0);
         solver.solve();
         let t3 = Instant::now();
+        let c3 = thread_cpu_seconds().unwrap_or(0.0);
         println!(
-            "build {:.3} ms, setup {:.3} ms, solve {:.3} ms, iters {}",
+            "build {:.3} ms, setup {:.3} ms, solve {:.3} ms, iters {}; cpu: build+setup {:.3} ms, solve {:.3} ms",
             (t1 - t0).as_secs_f64() * 1e3,
             (t2 - t1).as_secs_f64() * 1e3,
             (t3 - t2).as_secs_f64() * 1e3,
-            solver.solution.iterations
+            solver.solution.iterations,
+            (c2 - c0) * 1e3,
+            (c3 - c2) * 1e3,
         );
         if rep + 1 == reps {
             println!("{:?}", solver.timers);

@@ -305,6 +305,16 @@ fn summarize(r: &Resolved, verdict: Verdict, state: Option<State>, stats: Stats)
     }
 }
 
+/// How the relaxed cone program (no connector limits) is handed to the solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Formulation {
+    /// The direct form of [`socp::build`] (reference).
+    Direct,
+    /// The equilibrium-multiplier (dual) form of [`crate::dual`] (default: smaller KKT).
+    Dual,
+}
+
 /// Options of an evaluation.
 #[derive(Debug, Clone, Copy)]
 pub struct Options {
@@ -312,6 +322,9 @@ pub struct Options {
     pub fast_path: bool,
     /// Interior-point iteration limit per cone program (reaching it gives "not proven").
     pub max_iter: u32,
+    /// Form of the relaxed program; the program with connector limits (41) is always solved
+    /// in the direct form.
+    pub formulation: Formulation,
 }
 
 impl Default for Options {
@@ -319,6 +332,7 @@ impl Default for Options {
         Options {
             fast_path: true,
             max_iter: 100,
+            formulation: Formulation::Dual,
         }
     }
 }
@@ -376,7 +390,11 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
     };
     let run = |with_limits: bool, tol: f64, stats: &mut Stats| {
         let tb = Instant::now();
-        let p = socp::build(r, with_limits);
+        let p = if !with_limits && opt.formulation == Formulation::Dual {
+            crate::dual::build_relaxed(r)
+        } else {
+            socp::build(r, with_limits)
+        };
         stats.build_seconds += tb.elapsed().as_secs_f64();
         let (out, info) = socp::solve_tol(&p, opt.max_iter, tol);
         stats.solves += 1;
@@ -385,10 +403,8 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
         (p, out)
     };
     let state_of = |p: &socp::Program, x: &[f64]| State {
-        conns: p
-            .conns
-            .iter()
-            .map(|l| socp::connection_values(l, x))
+        conns: (0..p.conns.len())
+            .map(|k| socp::connection_values_of(p, k, x))
             .collect(),
         contacts: p
             .contacts

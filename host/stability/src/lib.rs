@@ -4,15 +4,17 @@
 //! - [`model`]: the general model (modules, connections, contacts, loads, connectors) and its
 //!   file format (JSON/TOML, see README.md);
 //! - [`socp`]: the sparse equilibrium system Zx = b (29) and the cone programs (41)/(51);
+//! - [`dual`]: the relaxed program (41) in its equilibrium-multiplier (dual) form (fast);
 //! - [`gate`]: Theorem 2 verdicts, margins (42)/(52), broken connections (44), the
 //!   determinate-tree fast path;
 //! - [`range`]: admissible external load at a point by bisection (SOCP 4.1);
 //! - [`puzzlebot`]: PuzzleBot adapter and `max_safe_advance`;
 //! - [`io`]: files, reports and [`io::gate_command`] (the CLI entry point); [`picture`]: SVG.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)] // one exception: the thread CPU clock of the benchmarks
 #![warn(missing_docs)]
 
 pub mod bench_problems;
+pub mod dual;
 pub mod gate;
 pub mod io;
 pub mod model;
@@ -21,7 +23,7 @@ pub mod puzzlebot;
 pub mod range;
 pub mod socp;
 
-pub use gate::{evaluate, evaluate_with, Options, Report, Verdict};
+pub use gate::{evaluate, evaluate_with, Formulation, Options, Report, Verdict};
 pub use io::{gate_command, load_assembly, GateError};
 pub use model::{Assembly, ConnectorSpec, Limits6, ModelError};
 pub use puzzlebot::{max_safe_advance, Advance, LimitedBy};

@@ -413,6 +413,7 @@ fn solver_trouble_is_not_proven_never_stable() {
     let opt = Options {
         fast_path: false,
         max_iter: 1,
+        ..Options::default()
     };
     let r = evaluate_with(&a, opt).unwrap();
     assert!(

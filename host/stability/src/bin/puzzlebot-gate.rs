@@ -1,7 +1,7 @@
 //! `puzzlebot-gate`: run the stability gate on an assembly file, or export benchmark problems.
 
 use clap::{Parser, Subcommand};
-use puzzlebot_stability::bench_problems::Family;
+use puzzlebot_stability::bench_problems::{thread_cpu_seconds, Family};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -74,8 +74,10 @@ fn main() -> ExitCode {
                     }
                 };
                 let mut times = Vec::new();
+                let mut cpu = Vec::new();
                 let mut last = None;
                 for _ in 0..repeat.max(1) {
+                    let c0 = thread_cpu_seconds();
                     let t = std::time::Instant::now();
                     let r = match puzzlebot_stability::evaluate(&a) {
                         Ok(r) => r,
@@ -85,13 +87,22 @@ fn main() -> ExitCode {
                         }
                     };
                     times.push(t.elapsed().as_secs_f64());
+                    if let (Some(a), Some(b)) = (c0, thread_cpu_seconds()) {
+                        cpu.push(b - a);
+                    }
                     last = Some(r);
                 }
                 times.sort_by(f64::total_cmp);
+                cpu.sort_by(f64::total_cmp);
+                let cpu_median = if cpu.is_empty() {
+                    "n/a".to_string()
+                } else {
+                    format!("{:.3} ms", cpu[cpu.len() / 2] * 1e3)
+                };
                 let n = a.modules.len();
                 if let Some(r) = last {
                     println!(
-                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms ({:.1} µs/module) path={:?} iters={}",
+                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms cpu median {cpu_median} ({:.1} µs/module) path={:?} iters={}",
                         f.display(),
                         r.verdict.name(),
                         r.max_strength.unwrap_or(f64::NAN),
