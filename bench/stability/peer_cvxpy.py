@@ -8,6 +8,10 @@ Usage:
     cargo run --release -p puzzlebot-stability --bin puzzlebot-gate -- export chain 100 /tmp/chain-100.json
     python3 bench/stability/peer_cvxpy.py /tmp/chain-100.json [--repeat 3]
 
+Times: wall clock (best and median) and the process CPU time (median, all threads: the PyPI
+Clarabel may factorise with multi-threaded faer), to compare with `puzzlebot-gate time`, which
+prints the same figures for the Rust gate.
+
 Supports the subset of the file format the benchmark families use: box connectors, modules
 (rpy, com, fixed), environmental contacts (isotropic or anisotropic μ, μ = 0 frictionless),
 gravity. Prints the time (construction + CVXPY compile + solve) and w_A^max for cross-checking.
@@ -157,15 +161,19 @@ def main():
         with open(f) as fh:
             a = json.load(fh)
         times = []
+        cpu = []
         for _ in range(args.repeat):
             t = time.perf_counter()
+            c = time.process_time()
             status, wmax = build_and_solve(a)
             times.append(time.perf_counter() - t)
+            cpu.append(time.process_time() - c)
         n = len(a["modules"])
         best = min(times)
         print(f"{f}: n={n} status={status} w_max={wmax:.6g} best {best * 1e3:.3f} ms "
               f"median {sorted(times)[len(times) // 2] * 1e3:.3f} ms "
-              f"({best * 1e6 / n:.1f} µs/module)")
+              f"cpu median {sorted(cpu)[len(cpu) // 2] * 1e3:.3f} ms "
+              f"({best * 1e6 / n:.1f} µs/module)", flush=True)
 
 
 if __name__ == "__main__":
