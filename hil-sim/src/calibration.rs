@@ -5,10 +5,21 @@
 //! `v = k_v (M_r + M_l)/2`, `ω = k_ω (M_r − M_l)` (THESIS 3.10) were fitted; the feasible
 //! v–ω region ("butterfly", Figures 3.12–3.13) is the polygon through the origin, the
 //! corner A = (a_x, a_y) and the top speed B = (b_x, 0), mirrored. Here the same
-//! procedure runs on [`crate::drive`]: a grid of PWM pairs (0…255, the ATmega328P's 8-bit
-//! PWM on IN1 with IN2 low, i.e. fast decay), the steady (v, ω) of each, least-squares
-//! slopes through the origin, and the convex hull of the measured (v, |ω|) points for the
-//! butterfly.
+//! procedure runs on [`crate::drive`]: a grid of PWM pairs ([`Procedure`]), the steady
+//! (v, ω) of each, least-squares slopes through the origin over every point, B the fastest
+//! point that does not turn, and the upper convex hull of the measured (v, |ω|) points
+//! whose highest vertex is A.
+//!
+//! [`Procedure::thesis_3_5_1`] is the run THESIS describes (both motors forward, speed
+//! proportional to PWM); [`Procedure::full_grid`] also drives wheels backwards and shows
+//! whether a robot can turn in place.
+//!
+//! What a forward-only run cannot show: with neither wheel reversing, the fastest turn is a
+//! pivot about the stopped inner wheel, so at the corner A `a_x ≥ |a_y|·L/2` (L the track).
+//! THESIS's non-pilot A = (0.037, −2.19) has `a_x = |a_y|·16.9 mm`, below L/2 = 20 mm
+//! (its inner wheel was going backwards), while its k_ω/k_v = 23.7 /m says L ≈ 42 mm. The
+//! two cannot both hold for one two-wheeled robot, so the chapter-3 non-pilot preset
+//! reproduces k_v, k_ω and B and puts A on the pivot line.
 
 use crate::drive::{step, Bridge, DriveModel, DriveState};
 use crate::math::{cross, sub, V2};
@@ -16,8 +27,15 @@ use puzzlebot_params::{RobotKind, RobotParams};
 
 /// Full scale of the chapter-3 PWM commands.
 pub const PWM_MAX: i32 = 255;
-/// Largest PWM of the calibration grid (see the module documentation).
+/// Largest PWM of the full-grid calibration ([`Procedure::full_grid`]).
 pub const PWM_CAP: i32 = 230;
+/// Largest PWM of the THESIS 3.5.1 calibration runs ([`Procedure::thesis_3_5_1`]).
+///
+/// THESIS does not state it. For a speed proportional to PWM (THESIS 3.4: "linearly
+/// proportional to the PWM signal") the fitted slope k_v times the largest PWM is the top
+/// speed B, so B / k_v is that PWM: 0.11 / 0.0006 = 183 (non-pilot) and 0.47 / 0.0024 =
+/// 196 (pilot). Both robots ran the same procedure; 190 is between the two.
+pub const THESIS_PWM_MAX: i32 = 190;
 
 /// One measured command.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,31 +91,62 @@ impl Calibration {
     }
 }
 
-/// Steady (v, ω) of a robot driven open-loop with PWM `m` = (right, left): settle for
-/// `settle_s`, then average over `measure_s`.
+/// How the DRV8833 is driven by an 8-bit PWM value (datasheet table "PWM control of
+/// motor speed").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Decay {
+    /// PWM on one input, the other low (xIN1 = PWM, xIN2 = 0): the armature coasts during
+    /// the off time, as a bare Arduino `analogWrite` on one pin does. With a light load the
+    /// speed barely depends on the duty once the motor turns.
+    Fast,
+    /// One input high, PWM on the other (xIN1 = 1, xIN2 = PWM): the armature is shorted
+    /// during the off time, so the average voltage and the speed are proportional to the
+    /// duty ("the motor rotational speed is linearly proportional to the PWM signal with a
+    /// fixed load", THESIS 3.4). PWM 0 brakes.
+    Slow,
+}
+
+/// DRV8833 inputs (per-mille) for the signed 8-bit PWM `p` driven with `decay`.
+pub fn bridge_for(p: i32, decay: Decay) -> Bridge {
+    let d = (p.clamp(-PWM_MAX, PWM_MAX) * 1000 / PWM_MAX) as i16;
+    let on = d.unsigned_abs();
+    match (decay, d >= 0) {
+        (Decay::Fast, true) => Bridge { in1: on, in2: 0 },
+        (Decay::Fast, false) => Bridge { in1: 0, in2: on },
+        (Decay::Slow, true) => Bridge {
+            in1: 1000,
+            in2: 1000 - on,
+        },
+        (Decay::Slow, false) => Bridge {
+            in1: 1000 - on,
+            in2: 1000,
+        },
+    }
+}
+
+/// Steady (v, ω) of a robot driven open-loop with PWM `m` = (right, left) in fast decay:
+/// settle for `settle_s`, then average over `measure_s`.
 pub fn measure(model: &DriveModel, m: [i32; 2], settle_s: f64, measure_s: f64) -> (f64, f64) {
-    let bridge = |p: i32| {
-        let d = (p.clamp(-PWM_MAX, PWM_MAX) * 1000 / PWM_MAX) as i16;
-        // PWM on one input, the other low (fast decay), as an ATmega `analogWrite` does.
-        if d >= 0 {
-            Bridge {
-                in1: d as u16,
-                in2: 0,
-            }
-        } else {
-            Bridge {
-                in1: 0,
-                in2: (-d) as u16,
-            }
-        }
-    };
+    measure_with(model, m, Decay::Fast, settle_s, measure_s)
+}
+
+/// Steady (v, ω) of a robot driven open-loop with PWM `m` = (right, left) and `decay`:
+/// settle for `settle_s`, then average over `measure_s` (THESIS 3.5.1 averages over
+/// "several seconds" because velocities from consecutive poses are too noisy).
+pub fn measure_with(
+    model: &DriveModel,
+    m: [i32; 2],
+    decay: Decay,
+    settle_s: f64,
+    measure_s: f64,
+) -> (f64, f64) {
     let mut s = DriveState::at_rest(model, 0.5);
-    let cmd = [bridge(m[1]), bridge(m[0])]; // [left, right]
+    let cmd = [bridge_for(m[1], decay), bridge_for(m[0], decay)]; // [left, right]
     let dt = 1e-3;
     for _ in 0..(settle_s / dt) as usize {
         step(model, &mut s, cmd, dt);
     }
-    let n = (measure_s / dt) as usize;
+    let n = ((measure_s / dt) as usize).max(1);
     let (mut v, mut w) = (0.0, 0.0);
     for _ in 0..n {
         step(model, &mut s, cmd, dt);
@@ -107,27 +156,124 @@ pub fn measure(model: &DriveModel, m: [i32; 2], settle_s: f64, measure_s: f64) -
     (v / n as f64, w / n as f64)
 }
 
-/// Run the calibration for a robot of `kind` with `params` on a PWM grid of `step_pwm`.
-pub fn calibrate(kind: RobotKind, params: &RobotParams, step_pwm: i32) -> Calibration {
-    let model = DriveModel::new(kind, &params.plant, &params.mass, &params.geometry);
-    let step_pwm = step_pwm.max(1);
-    let mut points = Vec::new();
-    let mut mr = -PWM_CAP;
-    while mr <= PWM_CAP {
-        let mut ml = -PWM_CAP;
-        while ml <= PWM_CAP {
-            if mr + ml >= 0 {
-                let (v, omega) = measure(&model, [mr, ml], 1.0, 1.0);
-                points.push(Point {
-                    m: [mr, ml],
-                    v,
-                    omega,
-                });
-            }
-            ml += step_pwm;
+/// A calibration run: which PWM pairs are commanded, how, and for how long.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Procedure {
+    /// Largest |PWM| of the grid.
+    pub pwm_max: i32,
+    /// Grid spacing (PWM units); the grid always includes 0 and ±`pwm_max`.
+    pub step: i32,
+    /// Include reverse PWMs (pairs with a non-negative mean), e.g. turning in place.
+    pub reverse: bool,
+    /// `Some(d)`: command a grid of mean PWM (0…`pwm_max`) × difference (0…d) instead of
+    /// a grid of (right, left) pairs; a wheel may then run backwards (mean < diff / 2).
+    pub diff_max: Option<i32>,
+    /// Bridge drive.
+    pub decay: Decay,
+    /// Settling time before averaging (s).
+    pub settle_s: f64,
+    /// Averaging time (s).
+    pub measure_s: f64,
+}
+
+impl Procedure {
+    /// The whole v ≥ 0 half of the command space (±[`PWM_CAP`], reverse included, fast
+    /// decay): shows whether a robot can turn in place (the butterfly's waist).
+    pub fn full_grid(step: i32) -> Procedure {
+        Procedure {
+            pwm_max: PWM_CAP,
+            step,
+            reverse: true,
+            diff_max: None,
+            decay: Decay::Fast,
+            settle_s: 1.0,
+            measure_s: 1.0,
         }
-        mr += step_pwm;
     }
+
+    /// THESIS 3.5.1 as the thesis ran it on the chapter-3 robots: "a combination of
+    /// different motor PWM signals" on a grid, both motors forward (0…[`THESIS_PWM_MAX`];
+    /// the thesis shows the region with v > 0 and mirrors it), speed proportional to PWM
+    /// (slow decay, see [`Decay::Slow`]), ten steps of 19; velocities averaged over
+    /// seconds. The chapter-3 preset (`Plant::chapter3`) was fitted with this grid.
+    pub fn thesis_3_5_1() -> Procedure {
+        Procedure {
+            pwm_max: THESIS_PWM_MAX,
+            step: THESIS_PWM_MAX / 10,
+            reverse: false,
+            diff_max: None,
+            decay: Decay::Slow,
+            settle_s: 1.0,
+            measure_s: 2.0,
+        }
+    }
+
+    /// The commanded (right, left) pairs.
+    pub fn pairs(&self) -> Vec<[i32; 2]> {
+        let levels = self.levels();
+        let mut out = Vec::new();
+        match self.diff_max {
+            None => {
+                for &mr in &levels {
+                    for &ml in &levels {
+                        if mr + ml >= 0 {
+                            out.push([mr, ml]);
+                        }
+                    }
+                }
+            }
+            Some(d) => {
+                let step = self.step.max(1);
+                for &mean in levels.iter().filter(|&&m| m >= 0) {
+                    let mut diff = 0;
+                    while diff <= d.max(0) {
+                        let (mr, ml) = (mean + diff / 2, mean - (diff - diff / 2));
+                        if mr.abs() <= PWM_MAX && ml.abs() <= PWM_MAX {
+                            out.push([mr, ml]);
+                        }
+                        diff += step;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The PWM values of one motor, ascending.
+    fn levels(&self) -> Vec<i32> {
+        let step = self.step.max(1);
+        let max = self.pwm_max.clamp(1, PWM_MAX);
+        let lo = if self.reverse { -max } else { 0 };
+        let mut out: Vec<i32> = (0..)
+            .map(|k| lo + k * step)
+            .take_while(|&p| p < max)
+            .collect();
+        if self.reverse && !out.contains(&0) {
+            out.push(0);
+            out.sort_unstable();
+        }
+        out.push(max);
+        out
+    }
+}
+
+/// Run the full-grid calibration ([`Procedure::full_grid`]) for a robot of `kind` with
+/// `params` on a PWM grid of `step_pwm`.
+pub fn calibrate(kind: RobotKind, params: &RobotParams, step_pwm: i32) -> Calibration {
+    calibrate_with(kind, params, &Procedure::full_grid(step_pwm))
+}
+
+/// Run the calibration `proc` for a robot of `kind` with `params`.
+pub fn calibrate_with(kind: RobotKind, params: &RobotParams, proc: &Procedure) -> Calibration {
+    let model = DriveModel::new(kind, &params.plant, &params.mass, &params.geometry);
+    let points: Vec<Point> = proc
+        .pairs()
+        .into_iter()
+        .map(|m| {
+            let (v, omega) = measure_with(&model, m, proc.decay, proc.settle_s, proc.measure_s);
+            Point { m, v, omega }
+        })
+        .collect();
     // Least squares through the origin (THESIS 3.10).
     let (mut sv, mut smm, mut sw, mut sdd) = (0.0, 0.0, 0.0, 0.0);
     for p in &points {
@@ -135,10 +281,8 @@ pub fn calibrate(kind: RobotKind, params: &RobotParams, step_pwm: i32) -> Calibr
         let diff = f64::from(p.m[0] - p.m[1]);
         sv += p.v * mean;
         smm += mean * mean;
-        if p.m[0] >= 0 && p.m[1] >= 0 {
-            sw += p.omega * diff;
-            sdd += diff * diff;
-        }
+        sw += p.omega * diff;
+        sdd += diff * diff;
     }
     let k_v = if smm > 0.0 { sv / smm } else { 0.0 };
     let k_omega = if sdd > 0.0 { sw / sdd } else { 0.0 };

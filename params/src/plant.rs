@@ -117,35 +117,42 @@ impl Plant {
         }
     }
 
-    /// The chapter-3 (v2) robots: 3 V CR2 battery, no encoders, commanded by raw PWM
-    /// (THESIS 3.4). Gear ratio, friction and tyre numbers were chosen by a random search
-    /// (`hil-sim` example `ch3_tune`) against the open-loop calibration of THESIS 3.5.1
-    /// (k_v, k_ω, butterfly points A, B; `drive::Drive`); the remaining errors are printed
-    /// by the example `ch3_calibration` (the pilot is close, the non-pilot is not yet).
+    /// The chapter-3 (v2) robots: 3 V CR2 battery, no encoders, commanded by raw 8-bit PWM
+    /// through the DRV8833 (THESIS 3.4), calibrated open-loop as in THESIS 3.5.1
+    /// (`hil-sim` `calibration::Procedure::thesis_3_5_1`: both motors forward, PWM 0…190,
+    /// slow decay so that speed is proportional to PWM as THESIS 3.4 states).
+    ///
+    /// Motor, wheels (r = 17 mm, L = 40 mm, THESIS 2.3.4) and masses are the shared ones;
+    /// THESIS does not give the chapter-3 gearboxes, so the gear ratio is what makes the
+    /// top speed B come out: the non-pilot's B = 0.11 m/s needs a 150:1 reduction (a
+    /// stock N20 ratio), the pilot's B = 0.47 m/s about 36:1. Its poor turning (k_ω/k_v =
+    /// 1.4 /m against 25 /m for an ideal 40 mm track) comes from scrubbing four wheels on
+    /// two axles; axle spacing, tyre and friction numbers were chosen by the `hil-sim`
+    /// example `ch3_tune` (random search against k_v, k_ω, A, B). The example
+    /// `ch3_calibration` prints the remaining errors.
     pub fn chapter3(kind: RobotKind) -> Self {
         let mut p = Plant::for_kind(kind);
+        // CR2 lithium primary: 3 V, 850 mAh (THESIS 2.3.3), flat discharge curve.
         p.battery_voltage = 3.0;
+        p.battery_capacity_mah = 850.0;
         p.battery_voltage_swing = 0.2;
         p.battery_resistance = 0.5;
         match kind {
-            // Fast four-wheeled pilot (B = 0.47 m/s) that barely turns in place.
             RobotKind::Pilot => {
-                p.gear_ratio = 41.96;
-                p.wheel_lateral_friction = 2.0;
-                p.slip_angle_saturation = 0.0287;
-                p.wheel_axle_offset = 0.00616;
-                p.friction_static = 4.88e-3;
-                p.friction_coulomb = 3.22e-3;
+                p.gear_ratio = 33.38;
+                p.battery_resistance = 0.710;
+                p.wheel_axle_offset = 0.02134;
+                p.wheel_lateral_friction = 0.9312;
+                p.slip_angle_saturation = 0.05940;
+                p.friction_static = 0.9595e-3;
+                p.friction_coulomb = 0.6332e-3;
+                p.friction_viscous = 1.763e-7;
+                p.wheel_friction = 0.7149;
+                p.traction_slip_speed = 0.002028;
             }
-            // Slow non-pilot (B = 0.11 m/s) whose ball casters drag when it turns.
+            // The chapter-5 two-wheel body and gearbox friction, a 150:1 gearbox.
             RobotKind::NonPilot => {
-                p.gear_ratio = 250.6;
-                p.wheel_axle_offset = 0.00109;
-                p.wheel_lateral_friction = 0.361;
-                p.slip_angle_saturation = 0.0497;
-                p.friction_static = 2.10e-3;
-                p.friction_coulomb = 1.39e-3;
-                p.caster_friction = 0.040;
+                p.gear_ratio = 150.0;
             }
         }
         p
