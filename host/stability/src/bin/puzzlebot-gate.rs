@@ -25,7 +25,8 @@ enum Cmd {
         #[arg(long)]
         picture: Option<PathBuf>,
     },
-    /// Time the gate on files (load excluded, model construction included): best and median.
+    /// Time the gate on files (load excluded, model construction included): best and median
+    /// wall-clock time and median CPU time of the solving thread.
     Time {
         /// Assembly files.
         files: Vec<PathBuf>,
