@@ -60,7 +60,10 @@ def time_gate(gate, path, repeat):
 
 
 def time_peer(path, repeat):
-    import peer_cvxpy  # imported lazily: --no-peer works without cvxpy
+    try:
+        import peer_cvxpy  # imported lazily: --no-peer works without cvxpy
+    except ImportError as e:
+        sys.exit(f"the CVXPY peer needs `pip install cvxpy clarabel` ({e}); or pass --no-peer")
 
     with open(path) as fh:
         a = json.load(fh)
