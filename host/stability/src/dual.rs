@@ -16,7 +16,7 @@
 //! Differences from the direct form, none of which changes the optimum of (41):
 //! - f_con^z ≤ 0 (24) is not imposed on box connections: f_con and f_s have the same column
 //!   in Z, so any point with f_con > 0 maps to (0, f_s + f_con), which is feasible and has a
-//!   smaller or equal strength (40) and objective. [`crate::socp::connection_values`]
+//!   smaller or equal strength (40) and objective. [`crate::socp::connection_values_of`]
 //!   applies that map to the solution ([`Program::clamp_fcon`]).
 //! - w_k ≤ w_A^max is the equality `w_max − w_k − t_k = 0` with a slack t_k ≥ 0.
 //! - The Lorentz adhesion −f_con is the nonnegative variable u = −f_con (51).
@@ -32,7 +32,7 @@ use clarabel::solver::SupportedConeT::{self, *};
 const SLOT_AXIS: [usize; SLOTS] = [0, 1, 2, 2, 3, 4, 5];
 
 /// Tag of a second-order-cone variable before renumbering (nonnegative variables come first).
-const SOC_TAG: usize = 1 << 40;
+const SOC_TAG: usize = 1 << (usize::BITS - 1);
 
 /// Unknowns and their equality rows, before the transpose handed to Clarabel.
 struct Builder {
