@@ -20,6 +20,9 @@
 //!   applies that map to the solution ([`Program::clamp_fcon`]).
 //! - w_k ≤ w_A^max is the equality `w_max − w_k − t_k = 0` with a slack t_k ≥ 0.
 //! - The Lorentz adhesion −f_con is the nonnegative variable u = −f_con (51).
+//!
+//! The w_A^max row couples every level row; it is padded with explicit zeros so that AMD
+//! treats it as dense and orders it last (values unchanged; see `pad_dense_row`).
 
 #![allow(clippy::needless_range_loop)] // index loops mirror the paper's per-component equations
 
@@ -88,7 +91,7 @@ pub fn build_relaxed(r: &Resolved) -> Program {
     build_relaxed_with(r, true)
 }
 
-/// [`build_relaxed`], with the padding of the w_A^max row ([`pad_dense_row`]) switchable
+/// [`build_relaxed`], with the padding of the w_A^max row (see the module docs) switchable
 /// (for measurements).
 pub fn build_relaxed_with(r: &Resolved, pad_dense: bool) -> Program {
     let nmod = r.com.len();
