@@ -13,8 +13,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use puzzlebot_assembly::{
-    shape_info, Coordinator, CoordinatorConfig, Event, MaintainPair, Mode, PairTolerances,
-    PairType, Pose2, RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner, Shape,
+    shape_info, Coordinator, CoordinatorConfig, Event, MaintainPair, Mode, PairStatus,
+    PairTolerances, PairType, Pose2, RobotState, Role, RunState, Scenario as AsmScenario,
+    ScenarioRunner, Shape,
 };
 use puzzlebot_mpc::{
     Command, ConnectionPoint, CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose,
@@ -121,6 +122,8 @@ pub struct AssemblyController {
     pub constraint_retries: u64,
     /// Extra seconds after the scenario ends before [`Controller::done`].
     pub settle: f64,
+    /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
+    coupled: BTreeSet<RobotId>,
     finished_at: Option<f64>,
 }
 
@@ -159,6 +162,7 @@ impl AssemblyController {
             coupling_constraints: true,
             constraint_retries: 0,
             settle: 0.5,
+            coupled: BTreeSet::new(),
             finished_at: None,
         })
     }
@@ -402,7 +406,9 @@ impl Controller for AssemblyController {
             if task.straight_only {
                 straight.insert(task.robot);
             }
-            if matches!(task.role, Role::Wait) {
+            // Waiting robots are not driven (THESIS 3.5.2); holding robots stand still (with
+            // no target the MPC's smoothness term would carry on their last command).
+            if matches!(task.role, Role::Wait | Role::Hold) {
                 wait.insert(task.robot);
             }
             inputs.push(RobotInput {
@@ -488,6 +494,15 @@ impl Controller for AssemblyController {
         out.extend(direct);
         let segs: BTreeMap<usize, Vec<RobotId>> =
             segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
+        // Robots in a pair that is inserted or connected move with their partners.
+        self.coupled = self
+            .runner
+            .coordinator()
+            .pairs()
+            .iter()
+            .filter(|p| matches!(p.status, PairStatus::HeadInserted | PairStatus::Connected))
+            .flat_map(|p| [p.pair.a, p.pair.b])
+            .collect();
         let maintain = tick.maintain.clone();
         self.gate(t, &states, &maintain, &segs, &mut out);
         out
@@ -495,6 +510,10 @@ impl Controller for AssemblyController {
 
     fn done(&self, t: f64) -> bool {
         self.finished_at.is_some_and(|f| t >= f + self.settle)
+    }
+
+    fn stabilise(&self, id: RobotId) -> bool {
+        !self.coupled.contains(&id)
     }
 }
 

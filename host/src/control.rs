@@ -61,6 +61,13 @@ pub trait Controller: Send {
     }
     /// True when the behaviour has finished at time `t` (s since it started).
     fn done(&self, t: f64) -> bool;
+    /// Whether the host's velocity stabiliser may correct robot `id`'s commands from its
+    /// measured motion. False for a robot coupled to others: its motion is the assembly's,
+    /// so the measured-vs-commanded error is coupling force, not calibration error, and
+    /// integrating it winds the robot up against its partners.
+    fn stabilise(&self, _id: RobotId) -> bool {
+        true
+    }
 }
 
 /// A reference path with a trapezoidal speed profile.
@@ -533,9 +540,10 @@ impl ControlLoop {
                                 let _ = f.event(&serde_json::json!({"t": now, "robot": rv.id, "event": "pose_back"}));
                             }
                         }
-                        let measured = if self.options.stabilise {
+                        let measured = if self.options.stabilise && controller.stabilise(rv.id) {
                             rv.velocity
                         } else {
+                            r.stab.reset();
                             None
                         };
                         let wt = r.stab.step(w, measured, dt);

@@ -5,23 +5,20 @@
 //! (coordinator → MPC), then inserts. t1 = time to "head aligned", t2 = time to "connected"
 //! (Algorithm 8); success = coupled in the simulator's ground truth within 60 s.
 //!
-//! Runs use the simulator's lockstep [`World`] (no sockets, no wall clock): a minimal host
-//! side session per robot, commands at 30 Hz through the host's [`DriveMap`], controller at
+//! Runs use the simulator's lockstep world through [`Lockstep`] (no sockets, no wall clock):
+//! the host's sessions, drive mapping and stabiliser at the command rate, the controller at
 //! 10 Hz, poses from the simulator's ground truth (no motion-capture noise).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 use puzzlebot_assembly::{EventKind, PairStatus, Scenario as AsmScenario};
 use puzzlebot_params::{FleetParams, RobotKind};
-use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
-use puzzlebot_sim::{RobotSpec, Scenario, World};
+use puzzlebot_sim::{EventKind as SimEventKind, RobotSpec, Scenario};
 use serde::Serialize;
 
 use crate::assemble::{AssemblyController, GateConfig};
-use crate::control::{Controller, FleetView, RobotView};
-use crate::drive::{DriveMap, PoseSample, Twist};
+use crate::lockstep::Lockstep;
 use crate::report::RunFolder;
 
 /// THESIS 5.2.3 figures.
@@ -78,58 +75,6 @@ pub struct CouplingStats {
 const FORM: &str =
     "name = \"coupling\"\n[[step]]\nform = { shape = \"line\", heading_deg = 0 }\ntimeout_s = 60\n";
 
-struct Host {
-    key: FleetKey,
-    sessions: BTreeMap<RobotId, HostSession>,
-    nonce: u64,
-}
-
-impl Host {
-    fn receive(&mut self, id: RobotId, frame: &[u8]) -> Option<Vec<u8>> {
-        let key = self.key.robot_key(id);
-        let s = self
-            .sessions
-            .entry(id)
-            .or_insert_with(|| HostSession::new(id, key));
-        self.nonce += 1;
-        let n = self.nonce;
-        let mut out = [0u8; MAX_DATAGRAM];
-        match s.receive(
-            frame,
-            || {
-                let mut b = [0u8; 16];
-                b[..8].copy_from_slice(&n.to_le_bytes());
-                b
-            },
-            &mut out,
-        ) {
-            Ok(HostReceived::Announce { welcome_len, .. }) => Some(out[..welcome_len].to_vec()),
-            _ => None,
-        }
-    }
-
-    fn established(&self, id: RobotId) -> bool {
-        self.sessions
-            .get(&id)
-            .is_some_and(HostSession::is_established)
-    }
-
-    fn seal(&mut self, id: RobotId, msg: &HostMsg) -> Option<Vec<u8>> {
-        let s = self.sessions.get_mut(&id)?;
-        let mut out = [0u8; MAX_DATAGRAM];
-        let n = s.send(msg, &mut out).ok()?;
-        Some(out[..n].to_vec())
-    }
-
-    fn pump(&mut self, w: &mut World) {
-        for (id, frame) in w.take_from_robots() {
-            if let Some(reply) = self.receive(id, &frame) {
-                w.send_to_robot(id, &reply);
-            }
-        }
-    }
-}
-
 /// One run: the pilot (id 2) at the origin facing +x, the non-pilot (id 1) `dx` behind the
 /// coupled position and `dy` aside, with a seeded heading error of up to ±0.2 rad.
 pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<CouplingRun> {
@@ -161,103 +106,19 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         params: params.clone(),
         ..Scenario::default()
     };
-    let key = FleetKey([0x5a; 32]);
-    let mut w = World::new(&scenario, &key)?;
-    let mut host = Host {
-        key,
-        sessions: BTreeMap::new(),
-        nonce: 0,
-    };
-    let ids = w.robot_ids();
-    let connect_end = w.time_us() + 3_000_000;
-    while !ids.iter().all(|&id| host.established(id)) {
-        if w.time_us() > connect_end {
-            anyhow::bail!("simulated robots did not open sessions within 3 s");
-        }
-        w.step();
-        host.pump(&mut w);
-    }
+    let mut ls = Lockstep::new(&scenario)?;
     let asm =
         AsmScenario::from_toml_str(Path::new("coupling.toml"), FORM, &params.non_pilot.geometry)?;
     let mut ctl = AssemblyController::new(asm, params.clone(), GateConfig::default())?;
     ctl.settle = 0.0;
-    let maps: BTreeMap<RobotId, DriveMap> = scenario
-        .robots
-        .iter()
-        .map(|r| {
-            (
-                r.id,
-                DriveMap::from_params_or_geometric(params.robot(r.kind)),
-            )
-        })
-        .collect();
-    let kinds: BTreeMap<RobotId, RobotKind> =
-        scenario.robots.iter().map(|r| (r.id, r.kind)).collect();
-    let start = w.time_us();
-    let mut next_cmd = start;
-    let mut next_ctl = start;
-    let mut cmds: BTreeMap<RobotId, Twist> = BTreeMap::new();
-    let mut coupled_at = None;
-    loop {
-        let now = w.time_us();
-        let t = (now - start) as f64 * 1e-6;
-        if t > RUN_LIMIT_S {
-            break;
+    let ls_run = ls.run(&mut ctl, RUN_LIMIT_S, |_, _| {});
+    let w = &ls.world;
+    let coupled_at = ls_run.sim_events.iter().find_map(|e| match e.kind {
+        SimEventKind::Coupled { .. } if e.t_us >= ls_run.start_us => {
+            Some((e.t_us - ls_run.start_us) as f64 * 1e-6)
         }
-        if now >= next_ctl {
-            next_ctl += 100_000;
-            let truth = w.ground_truth();
-            let view = FleetView {
-                t,
-                robots: truth
-                    .robots
-                    .iter()
-                    .map(|r| RobotView {
-                        id: r.id,
-                        kind: kinds.get(&r.id).copied().unwrap_or(RobotKind::NonPilot),
-                        pose: Some(PoseSample {
-                            t,
-                            x: r.pose.x,
-                            y: r.pose.y,
-                            theta: r.pose.yaw,
-                        }),
-                        velocity: None,
-                    })
-                    .collect(),
-            };
-            if coupled_at.is_none() && truth.are_coupled(2, 1) {
-                coupled_at = Some(t);
-            }
-            cmds = ctl.update(&view);
-            if ctl.done(t) {
-                break;
-            }
-        }
-        if now >= next_cmd {
-            next_cmd += 33_333;
-            for &id in &ids {
-                let tw = cmds.get(&id).copied().unwrap_or(Twist::ZERO);
-                let msg = match maps.get(&id) {
-                    Some(m) if tw != Twist::ZERO => {
-                        let wt = m.command(tw);
-                        HostMsg::WheelSpeed {
-                            left_rpm: wt.left_rpm as f32,
-                            right_rpm: wt.right_rpm as f32,
-                        }
-                    }
-                    _ => HostMsg::WheelSpeed {
-                        left_rpm: 0.0,
-                        right_rpm: 0.0,
-                    },
-                };
-                if let Some(f) = host.seal(id, &msg) {
-                    w.send_to_robot(id, &f);
-                }
-            }
-        }
-        w.step();
-        host.pump(&mut w);
-    }
+        _ => None,
+    });
     let truth = w.ground_truth();
     let coupled = truth.are_coupled(2, 1);
     let final_relative = match (truth.robot(1), truth.robot(2)) {
@@ -268,7 +129,7 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         }
         _ => [f64::NAN; 3],
     };
-    let sim_s = (w.time_us() - start) as f64 * 1e-6;
+    let sim_s = ls_run.t_end;
     let first = |s: PairStatus| {
         ctl.events.iter().find_map(|e| match &e.kind {
             EventKind::PairStatus { to, .. } if *to == s => Some(e.t),

@@ -11,6 +11,7 @@ pub mod control;
 pub mod drive;
 pub mod experiment;
 pub mod link;
+pub mod lockstep;
 pub mod pose;
 pub mod report;
 pub mod simulated;

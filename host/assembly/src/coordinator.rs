@@ -316,6 +316,21 @@ pub struct Coordinator {
     events: Vec<Event>,
     pending: Vec<Event>,
     complete_reported: bool,
+    /// Velocity mode: each segment leader's pose and the time when its motion started (the
+    /// origin of the segment's virtual rigid-body reference).
+    motion_start: BTreeMap<RobotId, (Pose2, f64)>,
+}
+
+/// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
+fn arc(start: &Pose2, v: f64, w: f64, t: f64) -> Pose2 {
+    let t = t.max(0.0);
+    let (dx, dy) = if w.abs() < 1e-9 {
+        (v * t, 0.0)
+    } else {
+        let r = v / w;
+        (r * (w * t).sin(), r * (1.0 - (w * t).cos()))
+    };
+    start.compose(&Pose2::new(dx, dy, w * t))
 }
 
 impl Coordinator {
@@ -334,6 +349,7 @@ impl Coordinator {
             events: Vec::new(),
             pending: Vec::new(),
             complete_reported: false,
+            motion_start: BTreeMap::new(),
         }
     }
 
@@ -555,6 +571,7 @@ impl Coordinator {
             Mode::Disperse { .. } => "disperse",
         };
         self.mode = mode;
+        self.motion_start.clear();
         self.push(t, EventKind::BehaviourStarted { name: name.into() });
     }
 
@@ -665,6 +682,15 @@ impl Coordinator {
             self.push(t, EventKind::FormationComplete);
         }
         let segments = self.segments();
+        if matches!(self.mode, Mode::Velocity { .. }) {
+            for m in Self::members(&segments).values() {
+                let leader = self.motion_leader(m);
+                if let Some(k) = self.robots.get(&leader) {
+                    let pose = k.pose;
+                    self.motion_start.entry(leader).or_insert((pose, t));
+                }
+            }
+        }
         let (tasks, active) = self.tasks(t, &segments);
         let maintain = self
             .pairs
@@ -786,6 +812,51 @@ impl Coordinator {
         }
     }
 
+    /// For a segment held together by anchors only (a flexible chain, THESIS 5.2.2 "line"):
+    /// for every member but `leader`, the connected pair that links it towards the leader
+    /// (breadth-first from the leader). `None` when a knob pair makes the segment rigid.
+    fn chain_towards(
+        &self,
+        members: &[RobotId],
+        leader: RobotId,
+    ) -> Option<BTreeMap<RobotId, usize>> {
+        let live: Vec<usize> = (0..self.pairs.len())
+            .filter(|i| {
+                let p = &self.pairs[*i];
+                p.status == PairStatus::Connected
+                    && !self.released.contains(i)
+                    && members.contains(&p.pair.a)
+                    && members.contains(&p.pair.b)
+            })
+            .collect();
+        if live
+            .iter()
+            .any(|&i| self.pairs[i].pair.kind != PairType::AnchorOpening)
+        {
+            return None;
+        }
+        let mut via = BTreeMap::new();
+        let mut queue = std::collections::VecDeque::from([leader]);
+        let mut seen = BTreeSet::from([leader]);
+        while let Some(r) = queue.pop_front() {
+            for &i in &live {
+                let p = &self.pairs[i].pair;
+                let other = if p.a == r {
+                    p.b
+                } else if p.b == r {
+                    p.a
+                } else {
+                    continue;
+                };
+                if seen.insert(other) {
+                    via.insert(other, i);
+                    queue.push_back(other);
+                }
+            }
+        }
+        Some(via)
+    }
+
     /// Members of each segment, by id.
     fn members(segments: &BTreeMap<RobotId, usize>) -> BTreeMap<usize, Vec<RobotId>> {
         let mut m: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
@@ -808,17 +879,46 @@ impl Coordinator {
         let members = Self::members(segments);
         let mut roles: BTreeMap<RobotId, (Role, Option<RobotId>)> = BTreeMap::new();
         let mut active = Vec::new();
+        // When the leader's role is a pose reference: a chain of anchors moves like a train
+        // (every member keeps its connection to the neighbour towards the leader, so it
+        // follows the leader's path within the anchors' yaw play; a rigid line cannot turn,
+        // its rear would have to move sideways), a rigid segment (knob pairs) moves as one
+        // body (every member tracks the reference composed with its offset in the shape).
+        // Otherwise members follow the leader (THESIS 5.5.9, FollowLeader).
         let lead_segment = |roles: &mut BTreeMap<RobotId, (Role, Option<RobotId>)>,
                             seg: usize,
                             leader: RobotId,
                             role: Role| {
+            let moving = matches!(role, Role::Track { .. } | Role::GoTo { use_yaw: true, .. });
+            let chain = if moving {
+                self.chain_towards(&members[&seg], leader)
+            } else {
+                None
+            };
             for &m in &members[&seg] {
                 if m == leader {
                     roles.insert(m, (role.clone(), Some(leader)));
-                } else {
-                    let offset = self.follow_offset(m, leader);
-                    roles.insert(m, (Role::Follow { leader, offset }, Some(leader)));
+                    continue;
                 }
+                if let Some(&i) = chain.as_ref().and_then(|c| c.get(&m)) {
+                    roles.insert(m, (self.align_role(i, m), Some(leader)));
+                    continue;
+                }
+                let offset = self.follow_offset(m, leader);
+                let own = match &role {
+                    Role::Track { reference } => Role::Track {
+                        reference: reference.iter().map(|p| p.compose(&offset)).collect(),
+                    },
+                    Role::GoTo {
+                        goal,
+                        use_yaw: true,
+                    } => Role::GoTo {
+                        goal: goal.compose(&offset),
+                        use_yaw: true,
+                    },
+                    _ => Role::Follow { leader, offset },
+                };
+                roles.insert(m, (own, Some(leader)));
             }
         };
         match &self.mode {
@@ -855,7 +955,17 @@ impl Coordinator {
             Mode::Velocity { v, w } => {
                 for (&seg, m) in &members {
                     let leader = self.motion_leader(m);
-                    lead_segment(&mut roles, seg, leader, Role::Velocity { v: *v, w: *w });
+                    // The commanded (v, ω) integrated from where the leader was when the
+                    // motion started: a reference that does not drift with tracking errors.
+                    let role = match self.motion_start.get(&leader) {
+                        Some((start, t0)) => Role::Track {
+                            reference: (0..=self.cfg.horizon_steps)
+                                .map(|k| arc(start, *v, *w, t - t0 + k as f64 * self.cfg.dt))
+                                .collect(),
+                        },
+                        None => Role::Velocity { v: *v, w: *w },
+                    };
+                    lead_segment(&mut roles, seg, leader, role);
                 }
             }
             Mode::GoTo { goal } => {
@@ -1242,17 +1352,19 @@ mod tests {
         let tick = c.tick(0.6, &goal);
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
         assert_eq!(leaders.len(), 1, "one segment, one leader");
-        assert!(matches!(role_of(&tick, 1), Role::Velocity { .. }));
-        match role_of(&tick, 2) {
-            Role::Follow { leader, offset } => {
-                assert_eq!(*leader, 1);
-                // Robot 2 (started ahead) sits one body length in front of its leader.
-                assert!(
-                    (offset.x - 0.05).abs() < 1e-9 && offset.y.abs() < 1e-9,
-                    "{offset:?}"
-                );
-            }
-            other => panic!("{other:?}"),
+        // The velocity becomes a rigid-body reference: the leader's pose integrated at
+        // 0.02 m/s from where it stood, every member tracking it composed with its offset.
+        let (Role::Track { reference: r1 }, Role::Track { reference: r2 }) =
+            (role_of(&tick, 1), role_of(&tick, 2))
+        else {
+            panic!("{:?} {:?}", role_of(&tick, 1), role_of(&tick, 2));
+        };
+        let l = goal.iter().find(|r| r.id == 1).unwrap().pose;
+        assert!((r1[1].x - (l.x + 0.02 * 0.1)).abs() < 1e-9, "{:?}", r1[1]);
+        for (a, b) in r1.iter().zip(r2) {
+            // Robot 2 (started ahead) sits one body length in front of its leader.
+            let rel = a.relative(b);
+            assert!((rel.x - 0.05).abs() < 1e-9 && rel.y.abs() < 1e-9, "{rel:?}");
         }
         assert_eq!(tick.maintain.len(), 1);
         // Decouple: the anchor robot wiggles; once apart the pair is released.

@@ -1,0 +1,242 @@
+//! The host's control stack driving the simulator's lockstep [`World`] (no sockets, no wall
+//! clock): the same [`Controller`], drive mapping and stabiliser as the real-time loop
+//! ([`crate::control::ControlLoop`]), and the same sealed protocol frames, but stepped with
+//! the simulated clock. Runs are deterministic from the simulator's seed and run as fast as
+//! the CPU allows, so assembly behaviours are tested and measured here (the coupling
+//! experiment, THESIS 5.2.3) while the loopback end-to-end tests cover the real link.
+//!
+//! Poses come from the simulator's ground truth (no motion-capture noise or latency).
+
+use std::collections::BTreeMap;
+
+use puzzlebot_params::RobotKind;
+use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
+use puzzlebot_sim::{Scenario, SimEvent, World};
+
+use crate::control::{Controller, FleetView, LoopOptions, RobotView};
+use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
+
+/// The host side of every robot's session, in process.
+struct Host {
+    key: FleetKey,
+    sessions: BTreeMap<RobotId, HostSession>,
+    nonce: u64,
+}
+
+impl Host {
+    fn receive(&mut self, id: RobotId, frame: &[u8]) -> Option<Vec<u8>> {
+        let key = self.key.robot_key(id);
+        let s = self
+            .sessions
+            .entry(id)
+            .or_insert_with(|| HostSession::new(id, key));
+        // Host nonces: a counter is unique per run, which is all a simulated run needs.
+        self.nonce += 1;
+        let n = self.nonce;
+        let mut out = [0u8; MAX_DATAGRAM];
+        match s.receive(
+            frame,
+            || {
+                let mut b = [0u8; 16];
+                b[..8].copy_from_slice(&n.to_le_bytes());
+                b
+            },
+            &mut out,
+        ) {
+            Ok(HostReceived::Announce { welcome_len, .. }) => Some(out[..welcome_len].to_vec()),
+            _ => None,
+        }
+    }
+
+    fn established(&self, id: RobotId) -> bool {
+        self.sessions
+            .get(&id)
+            .is_some_and(HostSession::is_established)
+    }
+
+    fn seal(&mut self, id: RobotId, msg: &HostMsg) -> Option<Vec<u8>> {
+        let s = self.sessions.get_mut(&id)?;
+        let mut out = [0u8; MAX_DATAGRAM];
+        let n = s.send(msg, &mut out).ok()?;
+        Some(out[..n].to_vec())
+    }
+
+    fn pump(&mut self, w: &mut World) {
+        for (id, frame) in w.take_from_robots() {
+            if let Some(reply) = self.receive(id, &frame) {
+                w.send_to_robot(id, &reply);
+            }
+        }
+    }
+}
+
+/// How a lockstep run ended.
+#[derive(Debug, Clone)]
+pub struct LockstepRun {
+    /// Controller time when the run ended (s).
+    pub t_end: f64,
+    /// The controller said it was done (false: the time limit ended the run).
+    pub done: bool,
+    /// Every simulator event (couplings, drops, failsafes) with its time.
+    pub sim_events: Vec<SimEvent>,
+    /// Simulated time when the controller started (µs): subtract from event times.
+    pub start_us: u64,
+}
+
+/// A simulated fleet in lockstep with a host controller.
+pub struct Lockstep {
+    /// The simulated world (tests may reach in: switch robots off, place them).
+    pub world: World,
+    host: Host,
+    kinds: BTreeMap<RobotId, RobotKind>,
+    stabilisers: BTreeMap<RobotId, (Stabiliser, VelocityEstimator)>,
+    options: LoopOptions,
+    command_period_us: u64,
+}
+
+impl Lockstep {
+    /// Build the world of `scenario` and open every online robot's session (≤ 3 s simulated).
+    pub fn new(scenario: &Scenario) -> anyhow::Result<Lockstep> {
+        let key = FleetKey([0x5a; 32]);
+        let mut world = World::new(scenario, &key)?;
+        let mut host = Host {
+            key,
+            sessions: BTreeMap::new(),
+            nonce: 0,
+        };
+        let online: Vec<RobotId> = scenario
+            .robots
+            .iter()
+            .filter(|r| !r.offline)
+            .map(|r| r.id)
+            .collect();
+        let connect_end = world.time_us() + 3_000_000;
+        while !online.iter().all(|&id| host.established(id)) {
+            if world.time_us() > connect_end {
+                anyhow::bail!("simulated robots did not open sessions within 3 s");
+            }
+            world.step();
+            host.pump(&mut world);
+        }
+        let options = LoopOptions::default();
+        let stabilisers = scenario
+            .robots
+            .iter()
+            .map(|r| {
+                let map = DriveMap::from_params_or_geometric(scenario.params.robot(r.kind));
+                (
+                    r.id,
+                    (
+                        Stabiliser::new(map, options.gains),
+                        VelocityEstimator::new(options.velocity_window),
+                    ),
+                )
+            })
+            .collect();
+        let hz = f64::from(scenario.params.rates.command_hz).clamp(1.0, 1000.0);
+        Ok(Lockstep {
+            world,
+            host,
+            kinds: scenario.robots.iter().map(|r| (r.id, r.kind)).collect(),
+            stabilisers,
+            options,
+            command_period_us: (1e6 / hz) as u64,
+        })
+    }
+
+    /// Run `ctl` until it is done or `limit` s have passed; `hook(world, t)` is called at
+    /// every controller tick before the controller sees the fleet.
+    pub fn run(
+        &mut self,
+        ctl: &mut dyn Controller,
+        limit: f64,
+        mut hook: impl FnMut(&mut World, f64),
+    ) -> LockstepRun {
+        let start = self.world.time_us();
+        let ctl_period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
+        let (mut next_cmd, mut next_ctl) = (start, start);
+        let mut cmds: BTreeMap<RobotId, Twist> = BTreeMap::new();
+        let dt = self.command_period_us as f64 * 1e-6;
+        let mut done = false;
+        loop {
+            let now = self.world.time_us();
+            let t = (now - start) as f64 * 1e-6;
+            if t > limit {
+                break;
+            }
+            if now >= next_cmd {
+                next_cmd += self.command_period_us;
+                let truth = self.world.ground_truth();
+                let mut view = FleetView {
+                    t,
+                    robots: Vec::new(),
+                };
+                for r in truth.robots.iter().filter(|r| self.host.established(r.id)) {
+                    let pose = PoseSample {
+                        t,
+                        x: r.pose.x,
+                        y: r.pose.y,
+                        theta: r.pose.yaw,
+                    };
+                    let velocity = self.stabilisers.get_mut(&r.id).and_then(|(_, est)| {
+                        est.push(pose);
+                        est.estimate()
+                    });
+                    view.robots.push(RobotView {
+                        id: r.id,
+                        kind: self
+                            .kinds
+                            .get(&r.id)
+                            .copied()
+                            .unwrap_or(RobotKind::NonPilot),
+                        pose: Some(pose),
+                        velocity,
+                    });
+                }
+                if now >= next_ctl {
+                    next_ctl += ctl_period_us;
+                    hook(&mut self.world, t);
+                    cmds = ctl.update(&view);
+                    if ctl.done(t) {
+                        done = true;
+                        break;
+                    }
+                }
+                for rv in &view.robots {
+                    let msg = match (cmds.get(&rv.id), self.stabilisers.get_mut(&rv.id)) {
+                        (Some(&w), Some((stab, _))) => {
+                            let measured = if self.options.stabilise && ctl.stabilise(rv.id) {
+                                rv.velocity
+                            } else {
+                                stab.reset();
+                                None
+                            };
+                            let wt = stab.step(w, measured, dt);
+                            HostMsg::WheelSpeed {
+                                left_rpm: wt.left_rpm as f32,
+                                right_rpm: wt.right_rpm as f32,
+                            }
+                        }
+                        (_, stab) => {
+                            if let Some((s, _)) = stab {
+                                s.reset();
+                            }
+                            HostMsg::Stop
+                        }
+                    };
+                    if let Some(f) = self.host.seal(rv.id, &msg) {
+                        self.world.send_to_robot(rv.id, &f);
+                    }
+                }
+            }
+            self.world.step();
+            self.host.pump(&mut self.world);
+        }
+        LockstepRun {
+            t_end: (self.world.time_us() - start) as f64 * 1e-6,
+            done,
+            sim_events: self.world.events().to_vec(),
+            start_us: start,
+        }
+    }
+}
