@@ -165,9 +165,6 @@ pub struct Procedure {
     pub step: i32,
     /// Include reverse PWMs (pairs with a non-negative mean), e.g. turning in place.
     pub reverse: bool,
-    /// `Some(d)`: command a grid of mean PWM (0…`pwm_max`) × difference (0…d) instead of
-    /// a grid of (right, left) pairs; a wheel may then run backwards (mean < diff / 2).
-    pub diff_max: Option<i32>,
     /// Bridge drive.
     pub decay: Decay,
     /// Settling time before averaging (s).
@@ -184,7 +181,6 @@ impl Procedure {
             pwm_max: PWM_CAP,
             step,
             reverse: true,
-            diff_max: None,
             decay: Decay::Fast,
             settle_s: 1.0,
             measure_s: 1.0,
@@ -201,7 +197,6 @@ impl Procedure {
             pwm_max: THESIS_PWM_MAX,
             step: THESIS_PWM_MAX / 10,
             reverse: false,
-            diff_max: None,
             decay: Decay::Slow,
             settle_s: 1.0,
             measure_s: 2.0,
@@ -212,27 +207,10 @@ impl Procedure {
     pub fn pairs(&self) -> Vec<[i32; 2]> {
         let levels = self.levels();
         let mut out = Vec::new();
-        match self.diff_max {
-            None => {
-                for &mr in &levels {
-                    for &ml in &levels {
-                        if mr + ml >= 0 {
-                            out.push([mr, ml]);
-                        }
-                    }
-                }
-            }
-            Some(d) => {
-                let step = self.step.max(1);
-                for &mean in levels.iter().filter(|&&m| m >= 0) {
-                    let mut diff = 0;
-                    while diff <= d.max(0) {
-                        let (mr, ml) = (mean + diff / 2, mean - (diff - diff / 2));
-                        if mr.abs() <= PWM_MAX && ml.abs() <= PWM_MAX {
-                            out.push([mr, ml]);
-                        }
-                        diff += step;
-                    }
+        for &mr in &levels {
+            for &ml in &levels {
+                if mr + ml >= 0 {
+                    out.push([mr, ml]);
                 }
             }
         }
