@@ -199,6 +199,7 @@ impl AssemblyController {
                 own_point,
                 partner_point,
                 relative_yaw,
+                kind,
                 ..
             } => vec![CostTerm::AlignPair {
                 partner: *partner,
@@ -211,7 +212,12 @@ impl AssemblyController {
                     angle: *relative_yaw,
                 },
                 weights: lead,
-                heading: 1.0e-3,
+                // A knob fits only within atan(1/25) ≈ 0.04 rad (THESIS 5.2.3): its pair
+                // needs the heading as much as the position.
+                heading: match kind {
+                    PairType::KnobHole => 1.0e-1,
+                    PairType::AnchorOpening => 1.0e-3,
+                },
             }],
             Role::Follow { leader, offset } => vec![CostTerm::FollowLeader {
                 leader: *leader,

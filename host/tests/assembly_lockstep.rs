@@ -74,7 +74,7 @@ timeout_s = 40
 [[step]]
 move = { velocity = [0.03, 0.0], duration_s = 3.0 }
 [[step]]
-move = { velocity = [0.03, 0.15], duration_s = 6.0 }
+move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 "#,
         60.0,
     );
@@ -117,7 +117,9 @@ move = { velocity = [0.03, 0.15], duration_s = 6.0 }
 }
 
 #[test]
-#[ignore = "work in progress: the knob pair between the rows does not couple yet"]
+#[ignore = "known failing (measured): both anchor rows couple, the knob pair between them \
+            never aligns: rows cannot move sideways and the 1 s MPC horizon finds no \
+            parallel-parking manoeuvre (lateral gap stays 9-15 mm)"]
 fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let f = fleet(&[
