@@ -1,6 +1,6 @@
 //! The datagram envelope: fixed header, postcard payload, truncated HMAC tag.
 
-use crate::crypto::SessionKey;
+use crate::crypto::Authenticator;
 use crate::messages::{Message, RobotId};
 use crate::reject::{EncodeError, Rejection};
 use crate::{HEADER_LEN, MAX_COUNTER, MAX_DATAGRAM, PROTOCOL_VERSION, TAG_LEN};
@@ -96,7 +96,7 @@ pub fn peek_header(frame: &[u8]) -> Result<Header, Rejection> {
 /// The header's direction and stream must match the message (they are derived from it
 /// by [`crate::session`]; a mismatch is a caller bug that the receiver will reject).
 pub fn seal<M: Message>(
-    key: &SessionKey,
+    key: &impl Authenticator,
     header: Header,
     msg: &M,
     out: &mut [u8],
@@ -122,7 +122,7 @@ pub fn seal<M: Message>(
 ///
 /// Replay checking is the session's job ([`crate::ReplayWindow`]): call it only after
 /// this returns `Ok`, so forged counters never move the window.
-pub fn open<M: Message>(key: &SessionKey, frame: &[u8]) -> Result<(Header, M), Rejection> {
+pub fn open<M: Message>(key: &impl Authenticator, frame: &[u8]) -> Result<(Header, M), Rejection> {
     let header = peek_header(frame)?;
     if header.direction != M::DIRECTION {
         return Err(Rejection::WrongDirection);

@@ -26,7 +26,7 @@ pub mod reject;
 pub mod replay;
 pub mod session;
 
-pub use crypto::{FleetKey, Nonce, RobotKey, SessionKey};
+pub use crypto::{Authenticator, FleetKey, MacKey, Nonce, RobotKey, SessionKey};
 pub use envelope::{open, peek_header, seal, Direction, Header, Stream};
 pub use messages::*;
 pub use reject::{EncodeError, Rejection};

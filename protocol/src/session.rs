@@ -8,7 +8,7 @@
 //!    direction. The robot accepts exactly one welcome per announce nonce, so old welcomes
 //!    and frames of any earlier session never verify or are refused.
 
-use crate::crypto::{Nonce, RobotKey, SessionKey};
+use crate::crypto::{MacKey, Nonce, RobotKey};
 use crate::envelope::{open, peek_header, seal, Direction, Header, Stream};
 use crate::messages::{Announce, HostMsg, Message, RobotId, RobotMsg};
 use crate::reject::{EncodeError, Rejection};
@@ -18,7 +18,8 @@ use crate::MAX_COUNTER;
 /// One established direction pair: key, send counter, receive window.
 #[derive(Debug, Clone)]
 struct Active {
-    key: SessionKey,
+    /// The session key, pre-keyed (HMAC pads hashed once per session).
+    key: MacKey,
     robot_nonce: Nonce,
     host_nonce: Nonce,
     tx: u64,
@@ -28,7 +29,7 @@ struct Active {
 impl Active {
     fn new(robot: &RobotKey, robot_nonce: Nonce, host_nonce: Nonce) -> Self {
         Active {
-            key: robot.session_key(&robot_nonce, &host_nonce),
+            key: MacKey::new(&robot.session_key(&robot_nonce, &host_nonce)),
             robot_nonce,
             host_nonce,
             tx: 0,
@@ -47,7 +48,7 @@ fn next_counter(c: &mut u64) -> Result<u64, EncodeError> {
 }
 
 fn seal_as<M: Message>(
-    key: &SessionKey,
+    key: &MacKey,
     robot_id: RobotId,
     stream: Stream,
     counter: u64,
@@ -68,7 +69,7 @@ fn seal_as<M: Message>(
 pub struct RobotSession {
     robot_id: RobotId,
     key: RobotKey,
-    hello_key: SessionKey,
+    hello_key: MacKey,
     robot_nonce: Nonce,
     hello_tx: u64,
     active: Option<Active>,
@@ -77,7 +78,7 @@ pub struct RobotSession {
 impl RobotSession {
     /// A robot with `key` that just booted with the random `boot_nonce`.
     pub fn new(robot_id: RobotId, key: RobotKey, boot_nonce: Nonce) -> Self {
-        let hello_key = key.hello_key();
+        let hello_key = MacKey::new(&key.hello_key());
         RobotSession {
             robot_id,
             key,
@@ -196,7 +197,7 @@ pub enum HostReceived {
 pub struct HostSession {
     robot_id: RobotId,
     key: RobotKey,
-    hello_key: SessionKey,
+    hello_key: MacKey,
     hello_tx: u64,
     hello_rx: ReplayWindow,
     /// Session the robot has proven (a valid frame arrived under it).
@@ -215,7 +216,7 @@ pub const PENDING_OFFERS: usize = 4;
 impl HostSession {
     /// Host side for robot `robot_id` with its derived key.
     pub fn new(robot_id: RobotId, key: RobotKey) -> Self {
-        let hello_key = key.hello_key();
+        let hello_key = MacKey::new(&key.hello_key());
         HostSession {
             robot_id,
             key,
