@@ -97,4 +97,23 @@ mod tests {
         let mean = (0..n).map(|_| r.normal()).sum::<f64>() / n as f64;
         assert!(mean.abs() < 0.03, "{mean}");
     }
+
+    #[test]
+    fn normal_pairs_are_unit_variance_uncorrelated_and_resume_after_clone() {
+        let mut r = Rng::new(11, 3);
+        let z: Vec<f64> = (0..20_000).map(|_| r.normal()).collect();
+        let n = z.len() as f64;
+        let var = z.iter().map(|v| v * v).sum::<f64>() / n;
+        assert!((var - 1.0).abs() < 0.04, "variance {var}");
+        // The kept second value of each Box–Muller pair is independent of the first.
+        let lag1 = z.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / (n - 1.0);
+        assert!(lag1.abs() < 0.03, "lag-1 correlation {lag1}");
+        // A clone taken between the two values of a pair continues identically.
+        let mut a = Rng::new(5, 5);
+        a.normal();
+        let mut b = a.clone();
+        let va: Vec<u64> = (0..4).map(|_| a.normal().to_bits()).collect();
+        let vb: Vec<u64> = (0..4).map(|_| b.normal().to_bits()).collect();
+        assert_eq!(va, vb);
+    }
 }
