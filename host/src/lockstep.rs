@@ -5,7 +5,8 @@
 //! the CPU allows, so assembly behaviours are tested and measured here (the coupling
 //! experiment, THESIS 5.2.3) while the loopback end-to-end tests cover the real link.
 //!
-//! Poses come from the simulator's ground truth (no motion-capture noise or latency).
+//! Poses come from the simulator's ground truth (no motion-capture noise or latency); as on
+//! the real link, the controller sees only robots heard from within `offline_after_ms`.
 
 use std::collections::BTreeMap;
 
@@ -21,10 +22,12 @@ struct Host {
     key: FleetKey,
     sessions: BTreeMap<RobotId, HostSession>,
     nonce: u64,
+    /// Simulated time of the last frame each robot's session accepted (µs).
+    heard: BTreeMap<RobotId, u64>,
 }
 
 impl Host {
-    fn receive(&mut self, id: RobotId, frame: &[u8]) -> Option<Vec<u8>> {
+    fn receive(&mut self, id: RobotId, frame: &[u8], now_us: u64) -> Option<Vec<u8>> {
         let key = self.key.robot_key(id);
         let s = self
             .sessions
@@ -34,7 +37,7 @@ impl Host {
         self.nonce += 1;
         let n = self.nonce;
         let mut out = [0u8; MAX_DATAGRAM];
-        match s.receive(
+        let got = s.receive(
             frame,
             || {
                 let mut b = [0u8; 16];
@@ -42,7 +45,11 @@ impl Host {
                 b
             },
             &mut out,
-        ) {
+        );
+        if got.is_ok() {
+            self.heard.insert(id, now_us);
+        }
+        match got {
             Ok(HostReceived::Announce { welcome_len, .. }) => Some(out[..welcome_len].to_vec()),
             _ => None,
         }
@@ -61,9 +68,19 @@ impl Host {
         Some(out[..n].to_vec())
     }
 
+    /// Established and heard from within `offline_us` (the real link's online test).
+    fn online(&self, id: RobotId, now_us: u64, offline_us: u64) -> bool {
+        self.established(id)
+            && self
+                .heard
+                .get(&id)
+                .is_some_and(|&t| now_us.saturating_sub(t) <= offline_us)
+    }
+
     fn pump(&mut self, w: &mut World) {
+        let now = w.time_us();
         for (id, frame) in w.take_from_robots() {
-            if let Some(reply) = self.receive(id, &frame) {
+            if let Some(reply) = self.receive(id, &frame, now) {
                 w.send_to_robot(id, &reply);
             }
         }
@@ -92,6 +109,7 @@ pub struct Lockstep {
     stabilisers: BTreeMap<RobotId, (Stabiliser, VelocityEstimator)>,
     options: LoopOptions,
     command_period_us: u64,
+    offline_us: u64,
 }
 
 impl Lockstep {
@@ -103,6 +121,7 @@ impl Lockstep {
             key,
             sessions: BTreeMap::new(),
             nonce: 0,
+            heard: BTreeMap::new(),
         };
         let online: Vec<RobotId> = scenario
             .robots
@@ -141,6 +160,7 @@ impl Lockstep {
             stabilisers,
             options,
             command_period_us: (1e6 / hz) as u64,
+            offline_us: u64::from(scenario.params.rates.offline_after_ms) * 1000,
         })
     }
 
@@ -171,7 +191,10 @@ impl Lockstep {
                     t,
                     robots: Vec::new(),
                 };
-                for r in truth.robots.iter().filter(|r| self.host.established(r.id)) {
+                // As the real link: only robots whose session is established and that were
+                // heard from recently (a switched-off robot drops out and is lost).
+                let (host, off) = (&self.host, self.offline_us);
+                for r in truth.robots.iter().filter(|r| host.online(r.id, now, off)) {
                     let pose = PoseSample {
                         t,
                         x: r.pose.x,

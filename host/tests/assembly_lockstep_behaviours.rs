@@ -10,14 +10,12 @@
 //! - a line driving towards a gap wider than half its length is stopped by the stability gate
 //!   (SOCP paper §4, DESIGN.md §7) before it tips: nothing falls.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::path::Path;
-use std::sync::{Arc, Mutex};
 
 use puzzlebot_assembly::{EventKind, RunState, Scenario as AsmScenario};
 use puzzlebot_host::assemble::{AssemblyController, GateConfig};
-use puzzlebot_host::control::{Controller, FleetView};
-use puzzlebot_host::drive::Twist;
+use puzzlebot_host::control::Controller;
 use puzzlebot_host::lockstep::{Lockstep, LockstepRun};
 use puzzlebot_protocol::messages::RobotId;
 use puzzlebot_sim::{EventKind as SimEventKind, GroundTruth, Scenario, World};
@@ -148,48 +146,6 @@ timeout_s = 25
     }
 }
 
-/// The host's view of a fleet whose robots can be switched off: the real-time loop shows a
-/// controller only the robots whose link is online (`ControlLoop::run`: `s.online &&
-/// s.established`), while the lockstep loop shows every robot whose session was ever
-/// established. This wrapper drops the robots the simulator reports offline, as the link
-/// would once their telemetry stops.
-struct OnlineOnly {
-    inner: AssemblyController,
-    offline: Arc<Mutex<BTreeSet<RobotId>>>,
-}
-
-impl Controller for OnlineOnly {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-
-    fn rate_hz(&self) -> f64 {
-        self.inner.rate_hz()
-    }
-
-    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
-        let offline = self.offline.lock().expect("offline set").clone();
-        let view = FleetView {
-            t: view.t,
-            robots: view
-                .robots
-                .iter()
-                .filter(|r| !offline.contains(&r.id))
-                .copied()
-                .collect(),
-        };
-        self.inner.update(&view)
-    }
-
-    fn done(&self, t: f64) -> bool {
-        self.inner.done(t)
-    }
-
-    fn stabilise(&self, id: RobotId) -> bool {
-        self.inner.stabilise(id)
-    }
-}
-
 #[test]
 fn a_robot_lost_mid_formation_is_replanned_without_and_the_rest_form_the_line() {
     let f = sim(&fleet_text(&[
@@ -198,40 +154,22 @@ fn a_robot_lost_mid_formation_is_replanned_without_and_the_rest_form_the_line() 
         (3, "NonPilot", [-0.17, -0.01, -0.1]),
         (4, "NonPilot", [-0.40, 0.1, 0.6]),
     ]));
-    let offline = Arc::new(Mutex::new(BTreeSet::new()));
-    let mut ctl = OnlineOnly {
-        inner: controller(
-            &f,
-            r#"
+    let mut ctl = controller(
+        &f,
+        r#"
 name = "lost"
 [[step]]
 form = { shape = "line", heading_deg = 0 }
 timeout_s = 45
 "#,
-        ),
-        offline: offline.clone(),
-    };
-    let mut switched_off_at = None;
-    let o = run(
-        &f,
-        &mut ctl,
-        |c| asm_events(&c.inner),
-        50.0,
-        |w, t| {
-            if switched_off_at.is_none() && t > 1.0 {
-                assert!(w.set_online(4, false), "robot 4 exists");
-                switched_off_at = Some(t);
-            }
-            let truth = w.ground_truth();
-            *offline.lock().expect("offline set") = truth
-                .robots
-                .iter()
-                .filter(|r| !r.online)
-                .map(|r| r.id)
-                .collect();
-        },
     );
-    let ctl = ctl.inner;
+    let mut switched_off_at = None;
+    let o = run(&f, &mut ctl, asm_events, 50.0, |w, t| {
+        if switched_off_at.is_none() && t > 1.0 {
+            assert!(w.set_online(4, false), "robot 4 exists");
+            switched_off_at = Some(t);
+        }
+    });
     let off = switched_off_at.expect("robot 4 was switched off");
     // The plan started with all four robots.
     assert!(
