@@ -641,6 +641,9 @@ impl Mechanics {
                     // Guided into the opening: lateral offset clamped, yaw limited.
                     let h = self.head_in(ba, bb);
                     let dy = h[1] - sh.opening[1];
+                    if !Self::entering(&sh, &self.c, h, wrap(ba.pose.yaw - bb.pose.yaw)) {
+                        continue; // torn away: `update_links` drops it, nothing is dragged
+                    }
                     let lim = self.c.align.min(0.0005_f64.max(dy.abs() * 0.5));
                     if dy.abs() > lim {
                         let c = dy - lim * dy.signum();
@@ -680,6 +683,15 @@ impl Mechanics {
         }
     }
 
+    /// An inserting anchor's head `h` (in the opening robot's frame, relative yaw `phi`) is
+    /// still in the opening's guide.
+    fn entering(sh: &Shape, c: &CouplingF, h: V2, phi: f64) -> bool {
+        h[0] <= sh.opening[0] + 5e-4
+            && h[0] >= sh.pin()[0] - 2e-3
+            && (h[1] - sh.opening[1]).abs() <= 2.0 * c.align
+            && phi.abs() <= c.yaw
+    }
+
     fn update_links(&mut self, bodies: &[Body], events: &mut Vec<LinkEvent>) {
         let sh = self.shape;
         let c = self.c;
@@ -693,8 +705,10 @@ impl Mechanics {
             let phi = wrap(ba.pose.yaw - bb.pose.yaw);
             match l.state {
                 LinkState::Inserting => {
-                    if h[0] > sh.opening[0] + 5e-4 {
-                        return false; // backed out before it was in
+                    // Backed out before it was in, or torn away sideways / turned away (only
+                    // a seated anchor holds; an entering one never drags its partner along).
+                    if !Self::entering(&sh, &c, h, phi) {
+                        return false;
                     }
                     if cp.anchor_seated(&g, &AnchorProbe { head: h, yaw: phi }, 1.0) {
                         l.state = LinkState::Coupled;
@@ -762,6 +776,27 @@ mod tests {
 
     fn body(x: f64, y: f64, yaw: f64) -> Body {
         Body::new(Pose::new(x, y, yaw), 0.1, 4.5e-5)
+    }
+
+    #[test]
+    fn an_entering_anchor_torn_away_sideways_lets_go_and_drags_nothing() {
+        let mut m = Mechanics::new(&Geometry::default(), &Coupling::default());
+        // Robot 0 (anchor) directly ahead of robot 1, its head 2 mm inside 1's opening.
+        let mut b = vec![body(0.055, 0.0, 0.0), body(0.0, 0.0, 0.0)];
+        let mut ev = Vec::new();
+        m.resolve(&mut b, &mut ev);
+        assert_eq!(m.links().len(), 1);
+        assert_eq!(m.links()[0].state, LinkState::Inserting);
+        // Knocked 20 mm sideways before it seated: the link goes, robot 1 stays put.
+        b[0].pose.y = 0.02;
+        b[0].retrig();
+        m.resolve(&mut b, &mut ev);
+        assert!(m.links().is_empty(), "{:?}", m.links());
+        assert!(
+            b[1].pose.x.abs() < 1e-9 && b[1].pose.y.abs() < 1e-9,
+            "{:?}",
+            b[1]
+        );
     }
 
     #[test]
