@@ -287,6 +287,27 @@ fn rect_overlap(pa: &Frame, pb: &Frame, half: V2) -> Option<(V2, f64)> {
     best
 }
 
+/// Where two overlapping rectangles touch (normal `n` from a to b): the corner of b deepest
+/// against n and the corner of a deepest along n, averaged.
+fn contact_point(pa: &Frame, pb: &Frame, half: V2, n: V2) -> V2 {
+    let corners = |f: &Frame| {
+        [
+            f.apply([half[0], half[1]]),
+            f.apply([half[0], -half[1]]),
+            f.apply([-half[0], half[1]]),
+            f.apply([-half[0], -half[1]]),
+        ]
+    };
+    let deepest = |cs: [V2; 4], sign: f64| {
+        cs.into_iter()
+            .max_by(|p, q| (sign * dot(*p, n)).total_cmp(&(sign * dot(*q, n))))
+            .unwrap_or(cs[0])
+    };
+    let ca = deepest(corners(pa), 1.0);
+    let cb = deepest(corners(pb), -1.0);
+    [(ca[0] + cb[0]) * 0.5, (ca[1] + cb[1]) * 0.5]
+}
+
 impl Mechanics {
     /// Mechanics for robots of geometry `g` with couplings `c`.
     pub fn new(g: &Geometry, c: &Coupling) -> Mechanics {
@@ -387,6 +408,12 @@ impl Mechanics {
             .any(|l| (l.a == i && l.b == j) || (l.a == j && l.b == i))
     }
 
+    fn in_assembly(&self, i: usize) -> bool {
+        self.links
+            .iter()
+            .any(|l| l.state == LinkState::Coupled && (l.a == i || l.b == i))
+    }
+
     fn anchor_busy(&self, a: usize) -> bool {
         self.links
             .iter()
@@ -451,8 +478,9 @@ impl Mechanics {
             }
         }
         self.detect(bodies, events);
+        let groups = self.rigid_groups(bodies.len());
         for _ in 0..ITERATIONS {
-            let moved = self.project_contacts(bodies);
+            let moved = self.project_contacts(bodies, &groups);
             if self.links.is_empty() && !moved {
                 break;
             }
@@ -535,11 +563,36 @@ impl Mechanics {
             .find(|l| (l.a == i && l.b == j) || (l.a == j && l.b == i))
     }
 
-    fn project_contacts(&self, bodies: &mut [Body]) -> bool {
+    /// Group of every body over coupled links (assemblies): robots in one assembly hold
+    /// their places through the couplings, so their bodies do not also push each other (a
+    /// mesh's neighbours touch by design; contacts and couplings would fight).
+    fn rigid_groups(&self, n: usize) -> Vec<usize> {
+        let mut g: Vec<usize> = (0..n).collect();
+        fn find(g: &mut [usize], mut x: usize) -> usize {
+            while g[x] != x {
+                g[x] = g[g[x]];
+                x = g[x];
+            }
+            x
+        }
+        for l in &self.links {
+            if l.state == LinkState::Coupled && l.a < n && l.b < n {
+                let (ra, rb) = (find(&mut g, l.a), find(&mut g, l.b));
+                g[ra] = rb;
+            }
+        }
+        for x in 0..n {
+            g[x] = find(&mut g, x);
+        }
+        g
+    }
+
+    fn project_contacts(&self, bodies: &mut [Body], groups: &[usize]) -> bool {
         let sh = self.shape;
         let mut moved = false;
         for &(i, j) in &self.pairs {
             let link = self.link_between(i, j);
+            let same_group = groups.get(i).is_some_and(|gi| groups.get(j) == Some(gi));
             let (lo, hi) = bodies.split_at_mut(j);
             let (bi, bj) = (&mut lo[i], &mut hi[0]);
             if !bi.active || !bj.active {
@@ -559,10 +612,17 @@ impl Mechanics {
                 })
             );
             let (fi, fj) = (bi.frame(), bj.frame());
-            if !skip_bodies {
+            if !skip_bodies && !same_group {
                 if let Some((n, pen)) = rect_overlap(&fi, &fj, sh.half) {
                     moved = true;
-                    solve_point(bi, bj, bi.pose.pos(), bj.pose.pos(), n, -pen, false);
+                    if self.in_assembly(i) && self.in_assembly(j) {
+                        let p = contact_point(&fi, &fj, sh.half, n);
+                        solve_point(bi, bj, p, p, n, -pen, true);
+                        bi.retrig();
+                        bj.retrig();
+                    } else {
+                        solve_point(bi, bj, bi.pose.pos(), bj.pose.pos(), n, -pen, false);
+                    }
                 }
             }
             // Anchor heads against the other body unless inserting / coupled / releasing.

@@ -250,6 +250,8 @@ impl AssemblyController {
                 weights: lead,
                 heading: 1.0e-3,
             }],
+            // Docking drives directly (see `Role::Dock`).
+            Role::Dock { .. } => Vec::new(),
         }
     }
 
@@ -453,6 +455,11 @@ impl Controller for AssemblyController {
                 if let Role::Velocity { v, w } = task.role {
                     direct.insert(task.robot, Twist::new(v, w));
                 }
+            }
+        }
+        for task in &tick.tasks {
+            if let Role::Dock { v, w, .. } = task.role {
+                direct.insert(task.robot, Twist::new(v, w));
             }
         }
         let mut result = self.mpc.tick(&inputs, &pairs);

@@ -10,7 +10,8 @@
 //! - a line driving towards a gap wider than half its length is stopped by the stability gate
 //!   (SOCP paper §4, DESIGN.md §7) before it tips: nothing falls;
 //! - four robots form a line and hold it while it drives and turns (as a train);
-//! - four robots form a 2×2 mesh (known failing, ignored with the measured cause).
+//! - four robots form a 2×2 mesh: one row, a lone robot docks at its side (knob), the last
+//!   robot joins by its anchor.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -20,7 +21,7 @@ use puzzlebot_host::assemble::{AssemblyController, GateConfig};
 use puzzlebot_host::control::Controller;
 use puzzlebot_host::lockstep::{Lockstep, LockstepRun};
 use puzzlebot_protocol::messages::RobotId;
-use puzzlebot_sim::{EventKind as SimEventKind, GroundTruth, Scenario, World};
+use puzzlebot_sim::{EventKind as SimEventKind, GroundTruth, LinkKind, Scenario, World};
 
 fn fleet_text(poses: &[(RobotId, &str, [f64; 3])]) -> String {
     let mut s = String::from("seed = 3\n");
@@ -364,9 +365,6 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 }
 
 #[test]
-#[ignore = "known failing (measured): both anchor rows couple, the knob pair between them \
-            never aligns: rows cannot move sideways and the 1 s MPC horizon finds no \
-            parallel-parking manoeuvre (lateral gap stays 9-15 mm)"]
 fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let f = sim(&fleet_text(&[
@@ -386,7 +384,26 @@ timeout_s = 50
     );
     let o = run(&f, &mut ctl, asm_events, 55.0, |_, _| {});
     assert!(finished(&ctl), "state {:?}", ctl.state());
-    // Two anchor rows and a knob between them (THESIS 5.2.2).
-    let n = o.truth.coupled.len();
-    assert!(n >= 3, "couplings {:?}", o.truth.coupled);
+    // Two anchor pairs and a knob pair between the rows (THESIS 5.2.2), in ground truth,
+    // matching the planned pairs.
+    let count = |k: LinkKind| o.truth.coupled.iter().filter(|c| c.2 == k).count();
+    assert!(
+        count(LinkKind::Anchor) >= 2 && count(LinkKind::Knob) >= 1,
+        "couplings {:?}",
+        o.truth.coupled
+    );
+    for tp in ctl.runner().coordinator().pairs() {
+        assert!(
+            o.truth.are_coupled(tp.pair.a, tp.pair.b),
+            "planned pair {}-{} ({:?}) coupled",
+            tp.pair.a,
+            tp.pair.b,
+            tp.pair.kind
+        );
+    }
+    assert!(!o
+        .run
+        .sim_events
+        .iter()
+        .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. })));
 }

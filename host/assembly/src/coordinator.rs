@@ -6,7 +6,7 @@
 
 use crate::assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
 use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
-use crate::geom::{ConnPoint, PairType, Pose2};
+use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
 use crate::pair::{PairStatus, PairTolerances, TrackedPair};
 use crate::shape::ShapeSpec;
 use puzzlebot_params::geometry::Geometry;
@@ -72,6 +72,66 @@ pub enum Role {
         /// Reference samples over the MPC horizon.
         reference: Vec<Pose2>,
     },
+    /// Dock a side (knob–hole) connection (THESIS (3.2) θ_bias, 5.2.2): a lone robot on the
+    /// approach line beside an assembly drives `(v, w)` directly (a geometric line follower;
+    /// the MPC's pose tracking leaves millimetres of lateral error where the knob needs
+    /// less than one). It converges on the partner's side at a shallow angle, presses its
+    /// corner on it and straightens into the 0.04 rad fit while sliding onto the hole.
+    Dock {
+        /// Index of the pair in [`Coordinator::pairs`].
+        pair: usize,
+        /// Linear velocity (m/s).
+        v: f64,
+        /// Angular velocity (rad/s).
+        w: f64,
+    },
+}
+
+/// Staged approach of a side connection (see [`Role::Dock`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DockConfig {
+    /// Length of the approach (m).
+    pub run_in: f64,
+    /// How far outside the final place the approach starts (m): the lateral distance
+    /// still left where a knob passes the wrong hole (25 mm before the place) must stay
+    /// above the knob's 1.5 mm seat gap.
+    pub offset: f64,
+    /// Approach speed (m/s): above the wheels' start-up dead-band (20 RPM ≈ 0.036 m/s).
+    pub speed: f64,
+    /// Position tolerance of the approach's start (m).
+    pub capture: f64,
+    /// Heading per metre of lateral distance (rad/m): below 1 / (half a body length).
+    pub k_lat: f64,
+    /// Aim this far inside the partner's side (m), so the sides end up pressed together.
+    pub press: f64,
+    /// Largest heading towards the partner (rad).
+    pub max_heading: f64,
+    /// Heading gain: ω = −k_θ · heading error (1/s).
+    pub k_theta: f64,
+    /// An assembly bent more than this at an anchor (rad) straightens before a robot docks
+    /// at its side.
+    pub max_bend: f64,
+    /// The docking robot reverses after passing its place by this much (m): less than the
+    /// 25 mm to the next hole.
+    pub overshoot: f64,
+}
+
+impl Default for DockConfig {
+    fn default() -> Self {
+        DockConfig {
+            run_in: 0.06,
+            offset: 0.006,
+            speed: 0.04,
+            capture: 0.012,
+            k_lat: 32.0,
+            press: 0.0003,
+            max_heading: 0.15,
+            k_theta: 2.0,
+            max_bend: 0.04,
+            overshoot: 0.012,
+        }
+    }
 }
 
 /// One robot's task.
@@ -279,6 +339,8 @@ pub struct CoordinatorConfig {
     pub dt: f64,
     /// Heading gain of the THESIS (3.2) point controller used by rendezvous.
     pub heading_gain: f64,
+    /// Staged approach of side connections.
+    pub dock: DockConfig,
 }
 
 impl Default for CoordinatorConfig {
@@ -290,6 +352,7 @@ impl Default for CoordinatorConfig {
             horizon_steps: 10,
             dt: 0.1,
             heading_gain: 1.0,
+            dock: DockConfig::default(),
         }
     }
 }
@@ -319,6 +382,9 @@ pub struct Coordinator {
     /// Velocity mode: each segment leader's pose and the time when its motion started (the
     /// origin of the segment's virtual rigid-body reference).
     motion_start: BTreeMap<RobotId, (Pose2, f64)>,
+    /// Docking: the current driving direction (±1) per side pair; it reverses only after
+    /// the robot passed its place by `DockConfig::overshoot`.
+    dock_dir: std::cell::RefCell<BTreeMap<usize, f64>>,
 }
 
 /// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
@@ -350,6 +416,7 @@ impl Coordinator {
             pending: Vec::new(),
             complete_reported: false,
             motion_start: BTreeMap::new(),
+            dock_dir: std::cell::RefCell::new(BTreeMap::new()),
         }
     }
 
@@ -734,12 +801,24 @@ impl Coordinator {
             .collect();
         let mut busy = BTreeSet::new();
         let mut active = Vec::new();
-        // Smallest distance bucket that still has unconnected pairs.
+        // Side pairs between two multi-robot assemblies are avoided: rows cannot move
+        // sideways (THESIS 5.2.2: the side join needs < 1 mm and is the slow step), so a pair
+        // that would leave a pending knob pair with an assembly on both sides waits, and a
+        // lone robot docks at an assembly's side instead ([`Role::Dock`]).
+        let mut merged = segments.clone();
+        let deferred: BTreeSet<usize> = (0..self.pairs.len())
+            .filter(|&i| {
+                self.pairs[i].status == PairStatus::Decoupled
+                    && self.makes_side_join_between_assemblies(&merged, i)
+            })
+            .collect();
+        // Smallest distance bucket that still has unconnected pairs that may start.
         let open_bucket = self
             .pairs
             .iter()
-            .filter(|p| p.status != PairStatus::Connected)
-            .map(|p| crate::assign::distance_bucket(p.pair.centre_distance))
+            .enumerate()
+            .filter(|(i, p)| p.status != PairStatus::Connected && !deferred.contains(i))
+            .map(|(_, p)| crate::assign::distance_bucket(p.pair.centre_distance))
             .min();
         // Pairs in progress first, then the queue order (convex-first).
         let mut order: Vec<usize> = (0..self.pairs.len()).collect();
@@ -770,11 +849,160 @@ impl Coordinator {
             if !drivable.contains(&sa) && !drivable.contains(&sb) {
                 continue;
             }
+            if tp.status == PairStatus::Decoupled
+                && self.makes_side_join_between_assemblies(&merged, i)
+            {
+                continue;
+            }
             busy.insert(sa);
             busy.insert(sb);
             active.push(i);
+            // Later choices see this pair as done.
+            for seg in merged.values_mut() {
+                if *seg == sb {
+                    *seg = sa;
+                }
+            }
         }
         active
+    }
+
+    /// Would connecting pair `i` (given robot → segment `merged`) leave a pending knob pair
+    /// with two different segments of two or more robots each?
+    fn makes_side_join_between_assemblies(
+        &self,
+        merged: &BTreeMap<RobotId, usize>,
+        i: usize,
+    ) -> bool {
+        let p = &self.pairs[i].pair;
+        let (Some(&sa), Some(&sb)) = (merged.get(&p.a), merged.get(&p.b)) else {
+            return false;
+        };
+        let seg_of = |id: RobotId| merged.get(&id).map(|&s| if s == sb { sa } else { s });
+        let size = |s: usize| merged.keys().filter(|&&id| seg_of(id) == Some(s)).count();
+        self.pairs.iter().enumerate().any(|(k, q)| {
+            if k == i
+                || q.pair.kind != PairType::KnobHole
+                || q.status == PairStatus::Connected
+                || self.released.contains(&k)
+            {
+                return false;
+            }
+            match (seg_of(q.pair.a), seg_of(q.pair.b)) {
+                (Some(x), Some(y)) => x != y && size(x) >= 2 && size(y) >= 2,
+                _ => false,
+            }
+        })
+    }
+
+    /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
+    /// puts the two connection points on each other; the approach line starts `run_in`
+    /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
+    fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
+        let p = &self.pairs.get(i)?.pair;
+        let g = &self.geometry;
+        let partner = if me == p.a { p.b } else { p.a };
+        let (km, kp) = (self.robots.get(&me)?, self.robots.get(&partner)?);
+        let (pa, pb) = (p.point_a.position(g), p.point_b.position(g));
+        let (own, other, own_point, yaw) = if me == p.a {
+            (pa, pb, p.point_a, kp.pose.yaw + p.relative_yaw)
+        } else {
+            (pb, pa, p.point_b, kp.pose.yaw - p.relative_yaw)
+        };
+        let target = kp.pose.transform(other);
+        let (s, c) = yaw.sin_cos();
+        let fin = Pose2::new(
+            target[0] - (c * own[0] - s * own[1]),
+            target[1] - (s * own[0] + c * own[1]),
+            yaw,
+        );
+        let d = self.cfg.dock;
+        // Unit normal of the own connection point (towards the partner), own frame.
+        let (ny, nx) = own_point.normal().sin_cos();
+        let here = fin.inverse_transform(km.pose.xy());
+        // Approach from behind unless clearly ahead (a margin against flipping at the end).
+        let sigma = if here[0] <= d.run_in * 0.5 { 1.0 } else { -1.0 };
+        // Outward distance of the robot from its final line (the partner's side, extended),
+        // the distance still to go along it, and the turning sense that moves the robot
+        // towards the partner for the driving direction.
+        let lat = -(here[0] * nx + here[1] * ny);
+        let to_go = -sigma * here[0];
+        let toward = (sigma * (nx * 0.0 + ny)).signum();
+        let yaw_rel = wrap_angle(km.pose.yaw - yaw);
+        let approach = to_go <= d.run_in + d.capture
+            && lat <= d.offset + d.capture
+            && lat >= -0.002
+            && yaw_rel.abs() <= 0.3;
+        if !approach {
+            // Drive to the start of the approach, `run_in` behind (ahead of) the final place
+            // and `offset` outside it (a point goal for the MPC: a unicycle cannot be parked
+            // sideways; the approach law takes over anywhere near it).
+            let pre = [-sigma * d.run_in - nx * d.offset, -ny * d.offset];
+            return Some(Role::GoTo {
+                goal: fin.compose(&Pose2::new(pre[0], pre[1], 0.0)),
+                use_yaw: false,
+            });
+        }
+        // Converge on the partner's side with the heading proportional to the lateral
+        // distance: at k_lat · half a body length < 1 the front corner never reaches the
+        // side before the robot is flush, and the lateral distance decays over 1/k_lat of
+        // travel; the knob clicks in once within 1 mm along, 1.5 mm across and 0.04 rad.
+        // Never slower than the wheels' dead-band allows (fine steering needs both wheels
+        // turning): the robot drives through the place, and back after `overshoot`, until
+        // the knob clicks in.
+        let dir = {
+            let mut dirs = self.dock_dir.borrow_mut();
+            let dir = dirs.entry(i).or_insert(sigma);
+            if -*dir * here[0] < -d.overshoot {
+                *dir = -*dir;
+            }
+            *dir
+        };
+        let _ = to_go;
+        let v = dir * d.speed;
+        let toward = (dir * ny).signum() * toward.abs();
+        let target = toward * (d.k_lat * (lat + d.press)).clamp(-d.max_heading, d.max_heading);
+        let w = -d.k_theta * wrap_angle(yaw_rel - target);
+        Some(Role::Dock { pair: i, v, w })
+    }
+
+    /// Largest relative yaw over the connected anchor pairs inside `members` (rad).
+    fn chain_bend(&self, members: &[RobotId]) -> f64 {
+        self.pairs
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| {
+                p.status == PairStatus::Connected
+                    && !self.released.contains(i)
+                    && p.pair.kind == PairType::AnchorOpening
+                    && members.contains(&p.pair.a)
+                    && members.contains(&p.pair.b)
+            })
+            .filter_map(|(_, p)| {
+                let (a, b) = (self.robots.get(&p.pair.a)?, self.robots.get(&p.pair.b)?);
+                Some(wrap_angle(a.pose.yaw - b.pose.yaw - p.pair.relative_yaw).abs())
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// For a side pair with a lone non-pilot on one side: that robot (it docks; the other
+    /// side holds still). The lone robot whose partner's assembly is larger goes first.
+    fn docking_robot(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> Option<RobotId> {
+        let tp = self.pairs.get(i)?;
+        if tp.pair.kind != PairType::KnobHole
+            || !matches!(tp.status, PairStatus::Decoupled | PairStatus::HeadAligned)
+        {
+            return None;
+        }
+        let size = |id: RobotId| {
+            let s = segments.get(&id);
+            segments.values().filter(|&x| Some(x) == s).count()
+        };
+        [(tp.pair.a, tp.pair.b), (tp.pair.b, tp.pair.a)]
+            .into_iter()
+            .filter(|&(me, _)| size(me) == 1 && self.kind_of(me) == RobotKind::NonPilot)
+            .max_by_key(|&(_, other)| size(other))
+            .map(|(me, _)| me)
     }
 
     fn align_role(&self, i: usize, me: RobotId) -> Role {
@@ -930,6 +1158,49 @@ impl Coordinator {
                 active = self.choose_active(segments);
                 for &i in &active {
                     let p = self.pairs[i].pair;
+                    // A knob is rigid once in: both sides stand still until it is confirmed.
+                    if p.kind == PairType::KnobHole
+                        && self.pairs[i].status == PairStatus::HeadInserted
+                    {
+                        for side in [p.a, p.b] {
+                            for &m in &members[&segments[&side]] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                        }
+                        continue;
+                    }
+                    if let Some(me) = self.docking_robot(i, segments) {
+                        let other = if me == p.a { p.b } else { p.a };
+                        let seg = segments[&other];
+                        if self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend {
+                            // A bent chain's corners block the approach lane: the assembly
+                            // first drives straight ahead (a train straightens behind its
+                            // head); the docking robot waits.
+                            if let Some(k) = self.robots.get(&other) {
+                                let ahead = (0..=self.cfg.horizon_steps)
+                                    .map(|j| {
+                                        let x = 0.01 + j as f64 * self.cfg.dock.speed * self.cfg.dt;
+                                        k.pose.compose(&Pose2::new(x, 0.0, 0.0))
+                                    })
+                                    .collect();
+                                lead_segment(
+                                    &mut roles,
+                                    seg,
+                                    other,
+                                    Role::Track { reference: ahead },
+                                );
+                            }
+                            roles.insert(me, (Role::Hold, None));
+                            continue;
+                        }
+                        if let Some(role) = self.dock_role(i, me) {
+                            roles.insert(me, (role, Some(me)));
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                            continue;
+                        }
+                    }
                     for me in [p.a, p.b] {
                         let seg = segments[&me];
                         let alone_pilot = members[&seg]
@@ -1174,12 +1445,11 @@ mod tests {
         c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
             .unwrap();
         let tick = c.tick(0.0, &robots);
-        assert_eq!(tick.active.len(), 2, "two row pairs in parallel");
+        // One row first: forming the other row too would leave the side pair between two
+        // assemblies, which cannot move sideways; its robots wait.
+        assert_eq!(tick.active.len(), 1, "one row pair");
         for &i in &tick.active {
             assert_eq!(c.pairs()[i].pair.kind, PairType::AnchorOpening);
-        }
-        for r in &robots {
-            assert!(matches!(role_of(&tick, r.id), Role::Align { .. }));
         }
         // Decoupled anchor robots aim their anchor head (THESIS Algorithm 7).
         let i = tick.active[0];
@@ -1224,7 +1494,7 @@ mod tests {
     }
 
     #[test]
-    fn strict_convex_first_holds_back_the_side_pair() {
+    fn a_lone_robot_docks_at_a_row_instead_of_joining_two_rows_sideways() {
         let mut c = coordinator();
         let robots = vec![
             np(1, 0.0, 0.0, 0.0),
@@ -1235,9 +1505,10 @@ mod tests {
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
             .unwrap();
-        // Connect only the first row pair: the knob pair must still wait for the other row.
+        // Connect the row pair that goes first; leave the others where they are.
+        let first_tick = c.tick(0.0, &robots);
+        let first = c.pairs()[first_tick.active[0]].pair;
         let goal = at_goals(&c, &kinds);
-        let first = c.pairs()[0].pair;
         let mixed: Vec<RobotState> = robots
             .iter()
             .map(|r| {
@@ -1248,25 +1519,27 @@ mod tests {
                 }
             })
             .collect();
-        c.tick(0.0, &mixed);
+        c.tick(0.1, &mixed);
         let tick = c.tick(1.0, &mixed);
-        assert_eq!(c.pairs()[0].status, PairStatus::Connected);
-        assert_eq!(tick.active, vec![1], "only the second row pair is active");
-        // The connected row is one segment with one leader per active pair: here none, so hold.
-        let seg = tick
-            .tasks
-            .iter()
-            .find(|t| t.robot == first.a)
-            .unwrap()
-            .segment;
-        assert_eq!(
-            seg,
-            tick.tasks
-                .iter()
-                .find(|t| t.robot == first.b)
-                .unwrap()
-                .segment
+        // Next: the side (knob) pair, not the other row's anchor pair.
+        assert_eq!(tick.active.len(), 1, "{:?}", tick.active);
+        let side = c.pairs()[tick.active[0]].pair;
+        assert_eq!(side.kind, PairType::KnobHole);
+        // Its robot outside the row docks (drives directly or goes to the approach's start);
+        // the row holds still.
+        let lone = if side.a == first.a || side.a == first.b {
+            side.b
+        } else {
+            side.a
+        };
+        assert!(
+            matches!(role_of(&tick, lone), Role::Dock { .. } | Role::GoTo { .. }),
+            "{:?}",
+            role_of(&tick, lone)
         );
+        for id in [first.a, first.b] {
+            assert_eq!(role_of(&tick, id), &Role::Hold, "row robot {id}");
+        }
     }
 
     #[test]
