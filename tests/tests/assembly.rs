@@ -110,9 +110,10 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "known failing (measured): both anchor rows couple, the knob pair between the rows \
-            never aligns: the rows would have to move sideways (a parallel-parking manoeuvre \
-            the 1 s MPC horizon does not find); see host/tests/assembly_lockstep.rs"]
+#[ignore = "flaky in real time (measured: passed 1 of 3 loopback runs): one row forms, a lone \
+            robot docks at its side and the last joins by anchor, but the knob's 1 mm fit under \
+            pose noise and latency often misses within 50 s; the same scenario runs \
+            deterministically in CI as host/tests/assembly_lockstep.rs"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
