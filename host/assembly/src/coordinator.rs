@@ -548,6 +548,8 @@ impl Coordinator {
             .iter()
             .map(|p| (p.pair.key(), (p.status, p.since, p.last)))
             .collect();
+        // Docking directions are per pair index: a new plan starts afresh.
+        self.dock_dir.get_mut().clear();
         self.pairs = plan
             .pairs
             .iter()
@@ -620,6 +622,7 @@ impl Coordinator {
     fn fail_replan(&mut self, t: f64, reason: String) {
         self.plan = None;
         self.pairs.clear();
+        self.dock_dir.get_mut().clear();
         self.mode = Mode::Hold;
         self.push(t, EventKind::ReplanFailed { reason });
     }
@@ -922,12 +925,10 @@ impl Coordinator {
         let here = fin.inverse_transform(km.pose.xy());
         // Approach from behind unless clearly ahead (a margin against flipping at the end).
         let sigma = if here[0] <= d.run_in * 0.5 { 1.0 } else { -1.0 };
-        // Outward distance of the robot from its final line (the partner's side, extended),
-        // the distance still to go along it, and the turning sense that moves the robot
-        // towards the partner for the driving direction.
+        // Outward distance of the robot from its final line (the partner's side, extended)
+        // and the distance still to go along it.
         let lat = -(here[0] * nx + here[1] * ny);
         let to_go = -sigma * here[0];
-        let toward = (sigma * (nx * 0.0 + ny)).signum();
         let yaw_rel = wrap_angle(km.pose.yaw - yaw);
         let approach = to_go <= d.run_in + d.capture
             && lat <= d.offset + d.capture
@@ -958,9 +959,9 @@ impl Coordinator {
             }
             *dir
         };
-        let _ = to_go;
         let v = dir * d.speed;
-        let toward = (dir * ny).signum() * toward.abs();
+        // The turning sense that moves the robot towards the partner in this direction.
+        let toward = (dir * ny).signum();
         let target = toward * (d.k_lat * (lat + d.press)).clamp(-d.max_heading, d.max_heading);
         let w = -d.k_theta * wrap_angle(yaw_rel - target);
         Some(Role::Dock { pair: i, v, w })

@@ -43,19 +43,6 @@ pub struct PairTolerances {
     /// The coupling mechanics: when a head is seated / still held (shared with the
     /// simulator, [`puzzlebot_params::coupling`]).
     pub coupling: Coupling,
-    /// Anchor head to opening alignment (m). THESIS 5.2.3: 3.5 mm (`Coupling::anchor_align_tolerance`).
-    pub anchor_align: f64,
-    /// Relative yaw allowed for an anchor pair (rad). THESIS 4.2.2: ±0.5 (`Coupling::anchor_yaw_range`).
-    pub anchor_yaw: f64,
-    /// Knob alignment and insertion (m). THESIS 5.2.3: < 1 mm (`Coupling::knob_align_tolerance`).
-    pub knob_align: f64,
-    /// Relative yaw allowed for a knob pair (rad): the knob tolerance over the distance
-    /// between the two knobs of a side, atan(knob_align / (2·side_point_x)).
-    pub knob_yaw: f64,
-    /// Knob length (m), from `Geometry::knob_length`.
-    pub knob_length: f64,
-    /// Anchor length behind the back face (m): back face x − anchor head x (7 mm).
-    pub anchor_length: f64,
     /// A state is left only when its condition fails by this factor (> 1): hysteresis
     /// against measurement noise.
     pub hysteresis: f64,
@@ -73,17 +60,11 @@ impl Default for PairTolerances {
 }
 
 impl PairTolerances {
-    /// Tolerances from the shared robot parameters.
-    pub fn from_params(g: &Geometry, c: &Coupling) -> Self {
-        let knob_align = f64::from(c.knob_align_tolerance);
+    /// Tolerances from the shared robot parameters (the geometry is read where a pair is
+    /// measured).
+    pub fn from_params(_g: &Geometry, c: &Coupling) -> Self {
         PairTolerances {
             coupling: *c,
-            anchor_align: f64::from(c.anchor_align_tolerance),
-            anchor_yaw: f64::from(c.anchor_yaw_range),
-            knob_align,
-            knob_yaw: (knob_align / (2.0 * f64::from(g.side_point_x)).max(1e-6)).atan(),
-            knob_length: f64::from(g.knob_length),
-            anchor_length: f64::from(-0.5 * g.length - g.anchor_head[0]).max(0.0),
             hysteresis: 1.5,
             release: 2.0,
             confirm_s: 0.3,
@@ -144,26 +125,27 @@ pub fn measure(
 
 /// Is the head aligned with the opening / hole, with tolerances scaled by `k`?
 ///
-/// Anchor: the head lies within `anchor_align` of the segment from the opening inward by the
-/// anchor length (at the mouth or partly in), yaw within `anchor_yaw`. Knob: the tip is within
-/// `knob_align` along the face and at most `knob_align` outside the hole (THESIS 5.5.5: the
-/// augmented point is in the other robot's polygon within a margin ε).
-pub fn is_aligned(kind: PairType, m: &PairMeasure, t: &PairTolerances, k: f64) -> bool {
+/// Anchor: the head lies within `anchor_align_tolerance` of the segment from the opening
+/// inward by the anchor's depth (at the mouth or partly in), yaw within `anchor_yaw_range`.
+/// Knob: [`Coupling::knob_aligned`] (THESIS 5.5.5: the augmented point is in the other
+/// robot's polygon within a margin ε).
+pub fn is_aligned(
+    kind: PairType,
+    m: &PairMeasure,
+    t: &PairTolerances,
+    g: &Geometry,
+    k: f64,
+) -> bool {
+    let c = &t.coupling;
     match kind {
         PairType::AnchorOpening => {
-            let e = t.anchor_align * k;
+            let e = f64::from(c.anchor_align_tolerance) * k;
             m.head_along <= e
                 && m.head_gap <= e
-                && m.head_gap >= -(t.anchor_length + e)
-                && m.yaw_error.abs() <= t.anchor_yaw * k
+                && m.head_gap >= -(Coupling::anchor_depth(g) + e)
+                && m.yaw_error.abs() <= f64::from(c.anchor_yaw_range) * k
         }
-        PairType::KnobHole => {
-            let e = t.knob_align * k;
-            m.head_along <= e
-                && m.head_gap <= e
-                && m.head_gap >= -(t.knob_length + e)
-                && m.yaw_error.abs() <= t.knob_yaw * k
-        }
+        PairType::KnobHole => c.knob_aligned(g, &knob_probe(m), k),
     }
 }
 
@@ -287,20 +269,20 @@ impl TrackedPair {
             let before = self.status;
             match self.status {
                 PairStatus::Decoupled => {
-                    if is_aligned(kind, &m, tol, 1.0) {
+                    if is_aligned(kind, &m, tol, g, 1.0) {
                         go(self, PairStatus::HeadAligned);
                     }
                 }
                 PairStatus::HeadAligned => {
                     if is_inserted(kind, &m, tol, g, 1.0) {
                         go(self, PairStatus::HeadInserted);
-                    } else if !is_aligned(kind, &m, tol, h) {
+                    } else if !is_aligned(kind, &m, tol, g, h) {
                         go(self, PairStatus::Decoupled);
                     }
                 }
                 PairStatus::HeadInserted => {
                     if !is_held(kind, &m, tol, g, h) {
-                        let to = if is_aligned(kind, &m, tol, h) {
+                        let to = if is_aligned(kind, &m, tol, g, h) {
                             PairStatus::HeadAligned
                         } else {
                             PairStatus::Decoupled
