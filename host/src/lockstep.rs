@@ -5,14 +5,17 @@
 //! the CPU allows, so assembly behaviours are tested and measured here (the coupling
 //! experiment, THESIS 5.2.3) while the loopback end-to-end tests cover the real link.
 //!
-//! Poses come from the simulator's ground truth (no motion-capture noise or latency); as on
-//! the real link, the controller sees only robots heard from within `offline_after_ms`.
+//! Poses come from the simulator's virtual motion capture (100 Hz, sub-millimetre noise, as
+//! the real pose stream; [`Lockstep::exact_poses`] switches to ground truth); as on the real
+//! link, the controller sees only robots heard from within `offline_after_ms` whose pose is
+//! tracked.
 
 use std::collections::BTreeMap;
 
 use puzzlebot_params::RobotKind;
+use puzzlebot_protocol::pose::BodyPose;
 use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
-use puzzlebot_sim::{Scenario, SimEvent, World};
+use puzzlebot_sim::{RobotTruth, Scenario, SimEvent, World};
 
 use crate::control::{Controller, FleetView, LoopOptions, RobotView};
 use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
@@ -110,6 +113,12 @@ pub struct Lockstep {
     options: LoopOptions,
     command_period_us: u64,
     offline_us: u64,
+    /// Latest motion-capture pose of each robot (capture time µs, pose); `None` = exact.
+    mocap: Option<BTreeMap<RobotId, (u64, BodyPose)>>,
+    /// A pose older than this is stale and its robot is stopped (µs; `pose_stale_after_ms`).
+    stale_us: u64,
+    /// Capture time of the last pose given to each robot's velocity estimator (µs).
+    estimated: BTreeMap<RobotId, u64>,
 }
 
 impl Lockstep {
@@ -161,7 +170,39 @@ impl Lockstep {
             options,
             command_period_us: (1e6 / hz) as u64,
             offline_us: u64::from(scenario.params.rates.offline_after_ms) * 1000,
+            mocap: Some(BTreeMap::new()),
+            stale_us: u64::from(scenario.params.rates.pose_stale_after_ms) * 1000,
+            estimated: BTreeMap::new(),
         })
+    }
+
+    /// The controller sees exact ground-truth poses instead of motion capture.
+    pub fn exact_poses(mut self) -> Self {
+        self.mocap = None;
+        self
+    }
+
+    /// The pose the host sees of a robot whose ground truth is `truth`: (capture time µs,
+    /// x, y, yaw), or `None` when it is not tracked or stale.
+    fn observed(&self, truth: &RobotTruth, now_us: u64) -> Option<(u64, f64, f64, f64)> {
+        match &self.mocap {
+            None => Some((now_us, truth.pose.x, truth.pose.y, truth.pose.yaw)),
+            Some(latest) => latest
+                .get(&truth.id)
+                .filter(|(at, b)| b.tracked && now_us.saturating_sub(*at) <= self.stale_us)
+                .map(|(at, b)| (*at, f64::from(b.x), f64::from(b.y), f64::from(b.yaw))),
+        }
+    }
+
+    fn take_mocap(&mut self) {
+        let frames = self.world.take_mocap();
+        if let Some(latest) = &mut self.mocap {
+            for f in frames {
+                for b in f.bodies {
+                    latest.insert(b.robot_id, (f.time_us, b));
+                }
+            }
+        }
     }
 
     /// Run `ctl` until it is done or `limit` s have passed; `hook(world, t)` is called at
@@ -172,6 +213,7 @@ impl Lockstep {
         limit: f64,
         mut hook: impl FnMut(&mut World, f64),
     ) -> LockstepRun {
+        self.take_mocap();
         let start = self.world.time_us();
         let ctl_period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
         let (mut next_cmd, mut next_ctl) = (start, start);
@@ -195,16 +237,27 @@ impl Lockstep {
                 // heard from recently (a switched-off robot drops out and is lost).
                 let (host, off) = (&self.host, self.offline_us);
                 for r in truth.robots.iter().filter(|r| host.online(r.id, now, off)) {
-                    let pose = PoseSample {
-                        t,
-                        x: r.pose.x,
-                        y: r.pose.y,
-                        theta: r.pose.yaw,
+                    let Some((at, x, y, theta)) = self.observed(r, now) else {
+                        if let Some((_, est)) = self.stabilisers.get_mut(&r.id) {
+                            est.clear();
+                        }
+                        continue;
                     };
+                    let t_pose = at.saturating_sub(start) as f64 * 1e-6;
+                    let pose = PoseSample {
+                        t: t_pose,
+                        x,
+                        y,
+                        theta,
+                    };
+                    let fresh = self.estimated.get(&r.id).is_none_or(|&last| at > last);
                     let velocity = self.stabilisers.get_mut(&r.id).and_then(|(_, est)| {
-                        est.push(pose);
+                        if fresh {
+                            est.push(pose);
+                        }
                         est.estimate()
                     });
+                    self.estimated.insert(r.id, at);
                     view.robots.push(RobotView {
                         id: r.id,
                         kind: self
@@ -254,6 +307,7 @@ impl Lockstep {
             }
             self.world.step();
             self.host.pump(&mut self.world);
+            self.take_mocap();
         }
         LockstepRun {
             t_end: (self.world.time_us() - start) as f64 * 1e-6,

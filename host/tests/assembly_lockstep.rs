@@ -24,7 +24,12 @@ use puzzlebot_protocol::messages::RobotId;
 use puzzlebot_sim::{EventKind as SimEventKind, GroundTruth, LinkKind, Scenario, World};
 
 fn fleet_text(poses: &[(RobotId, &str, [f64; 3])]) -> String {
-    let mut s = String::from("seed = 3\n");
+    seeded_fleet_text(3, poses)
+}
+
+/// A fleet whose simulator (motion-capture noise, anchor play) runs from `seed`.
+fn seeded_fleet_text(seed: u64, poses: &[(RobotId, &str, [f64; 3])]) -> String {
+    let mut s = format!("seed = {seed}\n");
     for (id, kind, p) in poses {
         s.push_str(&format!(
             "[[robots]]\nid = {id}\nkind = \"{kind}\"\npose = [{}, {}, {}]\n",
@@ -367,43 +372,73 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 #[test]
 fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
-    let f = sim(&fleet_text(&[
-        (1, "NonPilot", [0.045, -0.03, 0.0]),
-        (2, "NonPilot", [-0.045, -0.03, 0.05]),
-        (3, "NonPilot", [0.075, 0.035, -0.05]),
-        (4, "NonPilot", [-0.02, 0.035, 0.0]),
-    ]));
-    let mut ctl = controller(
-        &f,
-        r#"
+    // Several seeds: each gives other motion-capture noise and anchor play, which decide
+    // where the docking robot's knob lines up first.
+    for seed in 1..=4 {
+        println!("seed {seed}");
+        let f = sim(&seeded_fleet_text(
+            seed,
+            &[
+                (1, "NonPilot", [0.045, -0.03, 0.0]),
+                (2, "NonPilot", [-0.045, -0.03, 0.05]),
+                (3, "NonPilot", [0.075, 0.035, -0.05]),
+                (4, "NonPilot", [-0.02, 0.035, 0.0]),
+            ],
+        ));
+        let mut ctl = controller(
+            &f,
+            r#"
 name = "mesh"
 [[step]]
 form = { shape = "mesh", rows = 2, heading_deg = 0 }
 timeout_s = 50
 "#,
-    );
-    let o = run(&f, &mut ctl, asm_events, 55.0, |_, _| {});
+        );
+        let o = run(&f, &mut ctl, asm_events, 55.0, |_, _| {});
+        assert!(finished(&ctl), "seed {seed}: state {:?}", ctl.state());
+        // Two anchor pairs and a knob pair between the rows (THESIS 5.2.2), in ground truth,
+        // matching the tracked pairs.
+        let count = |k: LinkKind| o.truth.coupled.iter().filter(|c| c.2 == k).count();
+        assert!(
+            count(LinkKind::Anchor) >= 2 && count(LinkKind::Knob) >= 1,
+            "seed {seed}: couplings {:?}",
+            o.truth.coupled
+        );
+        for tp in ctl.runner().coordinator().pairs() {
+            assert!(
+                o.truth.are_coupled(tp.pair.a, tp.pair.b),
+                "seed {seed}: pair {}-{} ({:?}) coupled",
+                tp.pair.a,
+                tp.pair.b,
+                tp.pair.kind
+            );
+        }
+        assert!(!o
+            .run
+            .sim_events
+            .iter()
+            .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. })));
+    }
+}
+
+#[test]
+#[ignore = "fails (measured 2026-11-22): the 6-robot, 2-pilot mesh does not form within 180 s; issue 7"]
+fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
+    // `puzzlebot demo --assembly`: six scattered robots (two pilots) form a 2-row mesh, move
+    // it 0.5 m, dissolve it and every robot reaches its own goal.
+    let f = puzzlebot_host::assemble::scattered_fleet(6, 2, 7);
+    let mut ctl = controller(&f, puzzlebot_host::assemble::DEMO_SCENARIO);
+    let o = run(&f, &mut ctl, asm_events, 400.0, |_, _| {});
     assert!(finished(&ctl), "state {:?}", ctl.state());
-    // Two anchor pairs and a knob pair between the rows (THESIS 5.2.2), in ground truth,
-    // matching the planned pairs.
-    let count = |k: LinkKind| o.truth.coupled.iter().filter(|c| c.2 == k).count();
     assert!(
-        count(LinkKind::Anchor) >= 2 && count(LinkKind::Knob) >= 1,
-        "couplings {:?}",
+        ctl.events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::FormationComplete)),
+        "formation complete"
+    );
+    assert!(
+        o.truth.coupled.is_empty(),
+        "still coupled: {:?}",
         o.truth.coupled
     );
-    for tp in ctl.runner().coordinator().pairs() {
-        assert!(
-            o.truth.are_coupled(tp.pair.a, tp.pair.b),
-            "planned pair {}-{} ({:?}) coupled",
-            tp.pair.a,
-            tp.pair.b,
-            tp.pair.kind
-        );
-    }
-    assert!(!o
-        .run
-        .sim_events
-        .iter()
-        .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. })));
 }
