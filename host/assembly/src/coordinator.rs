@@ -115,6 +115,9 @@ pub struct DockConfig {
     /// The docking robot reverses after passing its place by this much (m): less than the
     /// 25 mm to the next hole.
     pub overshoot: f64,
+    /// A bent assembly straightens only while the docking robot is at least this far from
+    /// its side (m); nearer, the moving holes could catch its knobs at the wrong place.
+    pub clearance: f64,
 }
 
 impl Default for DockConfig {
@@ -130,6 +133,7 @@ impl Default for DockConfig {
             k_theta: 4.0,
             max_bend: 0.04,
             overshoot: 0.012,
+            clearance: 0.003,
         }
     }
 }
@@ -1009,7 +1013,10 @@ impl Coordinator {
     /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
     /// puts the two connection points on each other; the approach line starts `run_in`
     /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
-    fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
+    /// Where docking robot `me` of side pair `i` is: its final pose, its position in that
+    /// pose's frame, the unit normal of its connection point (own frame) and its outward
+    /// distance from the final line (the partner's side, extended) (m).
+    fn dock_frame(&self, i: usize, me: RobotId) -> Option<(Pose2, [f64; 2], (f64, f64), f64)> {
         let p = &self.pairs.get(i)?.pair;
         let g = &self.geometry;
         let partner = if me == p.a { p.b } else { p.a };
@@ -1027,15 +1034,23 @@ impl Coordinator {
             target[1] - (s * own[0] + c * own[1]),
             yaw,
         );
-        let d = self.cfg.dock;
-        // Unit normal of the own connection point (towards the partner), own frame.
         let (ny, nx) = own_point.normal().sin_cos();
         let here = fin.inverse_transform(km.pose.xy());
+        let lat = -(here[0] * nx + here[1] * ny);
+        Some((fin, here, (nx, ny), lat))
+    }
+
+    /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
+    /// puts the two connection points on each other; the approach line starts `run_in`
+    /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
+    fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
+        let (fin, here, (nx, ny), lat) = self.dock_frame(i, me)?;
+        let km = self.robots.get(&me)?;
+        let yaw = fin.yaw;
+        let d = self.cfg.dock;
         // Approach from behind unless clearly ahead (a margin against flipping at the end).
         let sigma = if here[0] <= d.run_in * 0.5 { 1.0 } else { -1.0 };
-        // Outward distance of the robot from its final line (the partner's side, extended)
-        // and the distance still to go along it.
-        let lat = -(here[0] * nx + here[1] * ny);
+        // The distance still to go along the final line.
         let to_go = -sigma * here[0];
         let yaw_rel = wrap_angle(km.pose.yaw - yaw);
         let approach = to_go <= d.run_in + d.capture
@@ -1281,7 +1296,12 @@ impl Coordinator {
                     if let Some(me) = self.docking_robot(i, segments) {
                         let other = if me == p.a { p.b } else { p.a };
                         let seg = segments[&other];
-                        if self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend {
+                        // Only while the docking robot is clear of the side: the row would
+                        // slide its holes past the robot's knobs (a click at the wrong place).
+                        let near = self
+                            .dock_frame(i, me)
+                            .is_none_or(|(_, _, _, lat)| lat < self.cfg.dock.clearance);
+                        if !near && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend {
                             // A bent chain's corners block the approach lane: the assembly
                             // first drives straight ahead (a train straightens behind its
                             // head); the docking robot waits.
