@@ -145,7 +145,7 @@ pub struct RobotTask {
     pub robot: RobotId,
     /// What to do.
     pub role: Role,
-    /// Only straight motion allowed (pilot, THESIS 5.4.1): the MPC must keep ω = 0.
+    /// Only straight motion allowed (a lone pilot, THESIS 5.4.1): the MPC must keep ω = 0.
     pub straight_only: bool,
     /// Leader of this robot's segment (itself when leading; `None` when alone and idle).
     pub leader: Option<RobotId>,
@@ -916,23 +916,41 @@ impl Coordinator {
             .collect();
         let mut busy = BTreeSet::new();
         let mut active = Vec::new();
-        // Side pairs between two multi-robot assemblies are avoided: rows cannot move
-        // sideways (THESIS 5.2.2: the side join needs < 1 mm and is the slow step), so a pair
-        // that would leave a pending knob pair with an assembly on both sides waits, and a
-        // lone robot docks at an assembly's side instead ([`Role::Dock`]).
+        // A pair starts only when it can be done now and the rest of the plan can still be
+        // done after it ([`Coordinator::startable`]): a side pair needs a lone non-pilot on
+        // one side (rows cannot move sideways, THESIS 5.2.2: the side join needs < 1 mm), an
+        // anchor pair a non-pilot on one side (THESIS 3.5.2).
         let mut merged = segments.clone();
-        let deferred: BTreeSet<usize> = (0..self.pairs.len())
+        let decoupled: Vec<usize> = (0..self.pairs.len())
             .filter(|&i| {
-                self.pairs[i].status == PairStatus::Decoupled
-                    && self.makes_side_join_between_assemblies(&merged, i)
+                self.pairs[i].status == PairStatus::Decoupled && !self.released.contains(&i)
             })
             .collect();
+        let mut startable: BTreeSet<usize> = decoupled
+            .iter()
+            .copied()
+            .filter(|&i| self.startable(&merged, i, true))
+            .collect();
+        // No order completes the plan from here (e.g. both sides of every remaining side pair
+        // are already assemblies): rather than deadlock, start what can be done now.
+        let fallback = startable.is_empty();
+        if fallback {
+            startable = decoupled
+                .iter()
+                .copied()
+                .filter(|&i| self.startable(&merged, i, false))
+                .collect();
+        }
         // Smallest distance bucket that still has unconnected pairs that may start.
         let open_bucket = self
             .pairs
             .iter()
             .enumerate()
-            .filter(|(i, p)| p.status != PairStatus::Connected && !deferred.contains(i))
+            .filter(|(i, p)| {
+                p.status != PairStatus::Connected
+                    && !self.released.contains(i)
+                    && (p.status != PairStatus::Decoupled || startable.contains(i))
+            })
             .map(|(_, p)| crate::assign::distance_bucket(p.pair.centre_distance))
             .min();
         // Pairs in progress first, then the queue order (convex-first).
@@ -964,9 +982,7 @@ impl Coordinator {
             if !drivable.contains(&sa) && !drivable.contains(&sb) {
                 continue;
             }
-            if tp.status == PairStatus::Decoupled
-                && self.makes_side_join_between_assemblies(&merged, i)
-            {
+            if tp.status == PairStatus::Decoupled && !self.startable(&merged, i, !fallback) {
                 continue;
             }
             busy.insert(sa);
@@ -982,37 +998,91 @@ impl Coordinator {
         active
     }
 
-    /// Would connecting pair `i` (given robot → segment `merged`) leave a pending knob pair
-    /// with two different segments of two or more robots each?
-    fn makes_side_join_between_assemblies(
-        &self,
-        merged: &BTreeMap<RobotId, usize>,
-        i: usize,
-    ) -> bool {
-        let p = &self.pairs[i].pair;
-        let (Some(&sa), Some(&sb)) = (merged.get(&p.a), merged.get(&p.b)) else {
+    /// Can pair `i` be connected now, given robot → segment `merged`, and every other
+    /// unconnected pair after it, in some order? A merge of two segments needs a non-pilot
+    /// on one side (anchor pairs: that side moves, THESIS 3.5.2) or a lone non-pilot on one
+    /// side (side pairs: it docks, [`Role::Dock`]); a pair inside one segment closes a loop.
+    /// Depth-first over merge orders, memoised on the partition (plans are small); when the
+    /// search budget runs out the pair may start. `whole_plan` false: only "now".
+    fn startable(&self, merged: &BTreeMap<RobotId, usize>, i: usize, whole_plan: bool) -> bool {
+        let pending: Vec<usize> = (0..self.pairs.len())
+            .filter(|&k| {
+                k != i
+                    && self.pairs[k].status != PairStatus::Connected
+                    && !self.released.contains(&k)
+            })
+            .collect();
+        let mut groups: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        for (&id, &seg) in merged {
+            groups.entry(seg).or_default().push(id);
+        }
+        let partition: Vec<Vec<RobotId>> = groups.into_values().collect();
+        let Some(after) = self.merge_if_valid(&partition, i) else {
             return false;
         };
-        let seg_of = |id: RobotId| merged.get(&id).map(|&s| if s == sb { sa } else { s });
-        let size = |s: usize| merged.keys().filter(|&&id| seg_of(id) == Some(s)).count();
-        self.pairs.iter().enumerate().any(|(k, q)| {
-            if k == i
-                || q.pair.kind != PairType::KnobHole
-                || q.status == PairStatus::Connected
-                || self.released.contains(&k)
-            {
-                return false;
-            }
-            match (seg_of(q.pair.a), seg_of(q.pair.b)) {
-                (Some(x), Some(y)) => x != y && size(x) >= 2 && size(y) >= 2,
-                _ => false,
-            }
+        if !whole_plan {
+            return true;
+        }
+        let mut seen = BTreeSet::new();
+        let mut budget = 20_000usize;
+        self.completable(after, &pending, &mut seen, &mut budget)
+    }
+
+    /// The partition after connecting pair `k`, if that merge is allowed now.
+    fn merge_if_valid(&self, part: &[Vec<RobotId>], k: usize) -> Option<Vec<Vec<RobotId>>> {
+        let p = &self.pairs[k].pair;
+        let sa = part.iter().position(|g| g.contains(&p.a))?;
+        let sb = part.iter().position(|g| g.contains(&p.b))?;
+        if sa == sb {
+            return Some(part.to_vec());
+        }
+        let drivable = |g: &Vec<RobotId>| g.iter().any(|&r| self.kind_of(r) == RobotKind::NonPilot);
+        let lone = |g: &Vec<RobotId>| g.len() == 1 && drivable(g);
+        let ok = match p.kind {
+            PairType::AnchorOpening => drivable(&part[sa]) || drivable(&part[sb]),
+            PairType::KnobHole => lone(&part[sa]) || lone(&part[sb]),
+        };
+        if !ok {
+            return None;
+        }
+        let mut out: Vec<Vec<RobotId>> = part
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != sa && *j != sb)
+            .map(|(_, g)| g.clone())
+            .collect();
+        let mut joined = [part[sa].clone(), part[sb].clone()].concat();
+        joined.sort_unstable();
+        out.push(joined);
+        out.sort();
+        Some(out)
+    }
+
+    fn completable(
+        &self,
+        part: Vec<Vec<RobotId>>,
+        pending: &[usize],
+        seen: &mut BTreeSet<(Vec<Vec<RobotId>>, Vec<usize>)>,
+        budget: &mut usize,
+    ) -> bool {
+        if pending.is_empty() {
+            return true;
+        }
+        if *budget == 0 {
+            return true;
+        }
+        *budget -= 1;
+        if !seen.insert((part.clone(), pending.to_vec())) {
+            return false;
+        }
+        pending.iter().enumerate().any(|(n, &k)| {
+            self.merge_if_valid(&part, k).is_some_and(|next| {
+                let rest: Vec<usize> = [&pending[..n], &pending[n + 1..]].concat();
+                self.completable(next, &rest, seen, budget)
+            })
         })
     }
 
-    /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
-    /// puts the two connection points on each other; the approach line starts `run_in`
-    /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
     /// Where docking robot `me` of side pair `i` is: its final pose, its position in that
     /// pose's frame, the unit normal of its connection point (own frame) and its outward
     /// distance from the final line (the partner's side, extended) (m).
@@ -1463,7 +1533,12 @@ impl Coordinator {
                 RobotTask {
                     robot: id,
                     role,
-                    straight_only: self.kind_of(id) == RobotKind::Pilot,
+                    // A pilot alone moves straight only (THESIS 5.4.1: it turns imprecisely);
+                    // coupled, it turns with its assembly within its own v–ω limits (THESIS
+                    // 3.4, Fig. 3.13): held straight, it would fight the non-pilots steering
+                    // the train until the anchor's yaw play runs out and it comes loose.
+                    straight_only: self.kind_of(id) == RobotKind::Pilot
+                        && members.get(&segment).is_none_or(|m| m.len() == 1),
                     leader,
                     segment,
                 }
