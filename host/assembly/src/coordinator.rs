@@ -138,6 +138,18 @@ impl Default for DockConfig {
     }
 }
 
+/// A docking robot relative to its final pose (see [`Role::Dock`]).
+struct DockFrame {
+    /// Final pose: the two connection points on each other.
+    fin: Pose2,
+    /// The robot's position in the final pose's frame (m).
+    here: [f64; 2],
+    /// Unit normal of its connection point, own frame (x, y).
+    normal: (f64, f64),
+    /// Outward distance from the final line (the partner's side, extended) (m).
+    lat: f64,
+}
+
 /// One robot's task.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotTask {
@@ -1083,10 +1095,8 @@ impl Coordinator {
         })
     }
 
-    /// Where docking robot `me` of side pair `i` is: its final pose, its position in that
-    /// pose's frame, the unit normal of its connection point (own frame) and its outward
-    /// distance from the final line (the partner's side, extended) (m).
-    fn dock_frame(&self, i: usize, me: RobotId) -> Option<(Pose2, [f64; 2], (f64, f64), f64)> {
+    /// Where docking robot `me` of side pair `i` is (see [`DockFrame`]).
+    fn dock_frame(&self, i: usize, me: RobotId) -> Option<DockFrame> {
         let p = &self.pairs.get(i)?.pair;
         let g = &self.geometry;
         let partner = if me == p.a { p.b } else { p.a };
@@ -1107,14 +1117,24 @@ impl Coordinator {
         let (ny, nx) = own_point.normal().sin_cos();
         let here = fin.inverse_transform(km.pose.xy());
         let lat = -(here[0] * nx + here[1] * ny);
-        Some((fin, here, (nx, ny), lat))
+        Some(DockFrame {
+            fin,
+            here,
+            normal: (nx, ny),
+            lat,
+        })
     }
 
     /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
     /// puts the two connection points on each other; the approach line starts `run_in`
     /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
     fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
-        let (fin, here, (nx, ny), lat) = self.dock_frame(i, me)?;
+        let DockFrame {
+            fin,
+            here,
+            normal: (nx, ny),
+            lat,
+        } = self.dock_frame(i, me)?;
         let km = self.robots.get(&me)?;
         let yaw = fin.yaw;
         let d = self.cfg.dock;
@@ -1370,7 +1390,7 @@ impl Coordinator {
                         // slide its holes past the robot's knobs (a click at the wrong place).
                         let near = self
                             .dock_frame(i, me)
-                            .is_none_or(|(_, _, _, lat)| lat < self.cfg.dock.clearance);
+                            .is_none_or(|f| f.lat < self.cfg.dock.clearance);
                         if !near && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend {
                             // A bent chain's corners block the approach lane: the assembly
                             // first drives straight ahead (a train straightens behind its
