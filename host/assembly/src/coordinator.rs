@@ -9,6 +9,7 @@ use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
 use crate::pair::{is_inserted, measure, PairStatus, PairTolerances, TrackedPair};
 use crate::shape::ShapeSpec;
+use puzzlebot_params::coupling::{AnchorProbe, Coupling};
 use puzzlebot_params::geometry::Geometry;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::messages::RobotId;
@@ -219,6 +220,21 @@ pub enum EventKind {
         /// Knob robot and hole robot now.
         to: (RobotId, RobotId),
     },
+    /// Two robots coupled by an anchor the plan does not have (e.g. the wrong way round):
+    /// they wiggle apart (THESIS 5.7) before formation goes on.
+    UnplannedCoupling {
+        /// Robot whose anchor is in.
+        anchor: RobotId,
+        /// Robot whose opening holds it.
+        opening: RobotId,
+    },
+    /// An unplanned coupling came apart.
+    UnplannedReleased {
+        /// Robot whose anchor was in.
+        anchor: RobotId,
+        /// Robot whose opening held it.
+        opening: RobotId,
+    },
     /// A robot was declared lost.
     RobotLost {
         /// The robot.
@@ -412,6 +428,9 @@ pub struct Coordinator {
     /// Docking: the current driving direction (±1) per side pair; it reverses only after
     /// the robot passed its place by `DockConfig::overshoot`.
     dock_dir: std::cell::RefCell<BTreeMap<usize, f64>>,
+    /// Anchor couplings outside the plan (anchor robot, opening robot) → when first seen
+    /// (s): undone by wiggling before formation goes on.
+    unplanned: BTreeMap<(RobotId, RobotId), f64>,
 }
 
 /// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
@@ -444,6 +463,7 @@ impl Coordinator {
             complete_reported: false,
             motion_start: BTreeMap::new(),
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
+            unplanned: BTreeMap::new(),
         }
     }
 
@@ -732,6 +752,7 @@ impl Coordinator {
             }
         }
         self.retarget_side_pairs(t);
+        self.watch_unplanned(t);
         // Algorithm 8 on every tracked pair.
         for i in 0..self.pairs.len() {
             let (a, b) = (self.pairs[i].pair.a, self.pairs[i].pair.b);
@@ -815,6 +836,82 @@ impl Coordinator {
             active,
             complete,
             events: std::mem::take(&mut self.pending),
+        }
+    }
+
+    /// Anchor couplings between robots that no tracked pair covers, from the measured poses
+    /// (during formation only: the planner drives the plan's pairs). An anchor counts as in
+    /// when its head is inside the opening (between the seat's far end of travel and the
+    /// seat, [`Coupling::anchor_seated`]) and as out once [`Coupling::anchor_held`] fails by
+    /// the release factor.
+    fn watch_unplanned(&mut self, t: f64) {
+        if self.mode != Mode::Form {
+            self.unplanned.clear();
+            return;
+        }
+        let tol = self.cfg.tolerances;
+        let c = tol.coupling;
+        let g = self.geometry;
+        let seat = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(&g);
+        let ids: Vec<RobotId> = self
+            .robots
+            .keys()
+            .copied()
+            .filter(|id| !self.lost.contains(id))
+            .collect();
+        let planned = |a: RobotId, b: RobotId| {
+            self.pairs.iter().enumerate().any(|(i, p)| {
+                p.pair.kind == PairType::AnchorOpening
+                    && (p.pair.a, p.pair.b) == (a, b)
+                    && !self.released.contains(&i)
+            })
+        };
+        let mut found = Vec::new();
+        for &a in &ids {
+            for &b in &ids {
+                if a == b || planned(a, b) {
+                    continue;
+                }
+                let (pa, pb) = (self.robots[&a].pose, self.robots[&b].pose);
+                if (pa.x - pb.x).hypot(pa.y - pb.y) > 2.0 * f64::from(g.length) {
+                    continue;
+                }
+                let m = measure(&pa, ConnPoint::Back, &pb, ConnPoint::Front, 0.0, &g);
+                let probe = AnchorProbe {
+                    head: m.head_in_b,
+                    yaw: m.yaw_error,
+                };
+                let known = self.unplanned.contains_key(&(a, b));
+                let k = if known { tol.release.max(1.0) } else { 1.0 };
+                let inside = probe.head[0] >= seat - f64::from(c.anchor_travel) * k;
+                let coupled = inside
+                    && if known {
+                        c.anchor_held(&g, &probe, k)
+                    } else {
+                        c.anchor_seated(&g, &probe, k)
+                    };
+                if coupled {
+                    found.push((a, b));
+                }
+            }
+        }
+        let gone: Vec<(RobotId, RobotId)> = self
+            .unplanned
+            .keys()
+            .copied()
+            .filter(|k| !found.contains(k))
+            .collect();
+        for (anchor, opening) in gone {
+            self.unplanned.remove(&(anchor, opening));
+            self.push(t, EventKind::UnplannedReleased { anchor, opening });
+        }
+        for (anchor, opening) in found {
+            if let std::collections::btree_map::Entry::Vacant(e) =
+                self.unplanned.entry((anchor, opening))
+            {
+                e.insert(t);
+                self.push(t, EventKind::UnplannedCoupling { anchor, opening });
+            }
         }
     }
 
@@ -1433,6 +1530,23 @@ impl Coordinator {
                         } else {
                             let role = self.align_role(i, me);
                             lead_segment(&mut roles, seg, me, role);
+                        }
+                    }
+                }
+                // Unplanned couplings come apart first: the anchor robot wiggles forward
+                // (THESIS 5.7), or the opening robot backwards when the anchor is a pilot's.
+                for (&(anchor, opening), &t0) in &self.unplanned {
+                    let (v, w) = Wiggle::default().command(t - t0);
+                    let (me, other, v) = if self.kind_of(anchor) == RobotKind::NonPilot {
+                        (anchor, opening, v)
+                    } else {
+                        (opening, anchor, -v)
+                    };
+                    roles.insert(me, (Role::Velocity { v, w }, Some(me)));
+                    let held = segments.get(&other).and_then(|s| members.get(s));
+                    for &m in held.into_iter().flatten() {
+                        if m != me {
+                            roles.insert(m, (Role::Hold, None));
                         }
                     }
                 }
