@@ -78,6 +78,8 @@ pub enum Role {
     /// the MPC's pose tracking leaves millimetres of lateral error where the knob needs
     /// less than one). It converges on the partner's side at a shallow angle, presses its
     /// corner on it and straightens into the 0.04 rad fit while sliding onto the hole.
+    /// Also the last stage of an anchor pair with a waiting pilot (it cannot make room):
+    /// the robot turns on the spot to the pilot's axis, then drives straight in along it.
     Dock {
         /// Index of the pair in [`Coordinator::pairs`].
         pair: usize,
@@ -119,6 +121,10 @@ pub struct DockConfig {
     /// A bent assembly straightens only while the docking robot is at least this far from
     /// its side (m); nearer, the moving holes could catch its knobs at the wrong place.
     pub clearance: f64,
+    /// Stand-off of an anchor approach to a waiting pilot, on its axis (m).
+    pub standoff: f64,
+    /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
+    pub min_turn: f64,
 }
 
 impl Default for DockConfig {
@@ -135,6 +141,8 @@ impl Default for DockConfig {
             max_bend: 0.04,
             overshoot: 0.012,
             clearance: 0.003,
+            standoff: 0.06,
+            min_turn: 0.9,
         }
     }
 }
@@ -1277,6 +1285,112 @@ impl Coordinator {
         Some(Role::Dock { pair: i, v, w })
     }
 
+    /// Anchor pair `i` between a waiting pilot and robot `me` (alone): stand off on the
+    /// pilot's axis (a point goal), turn on the spot to its heading, then drive straight in
+    /// along the axis, steering the lateral offset out (the line follower of
+    /// [`Coordinator::dock_role`]). An MPC pose goal next to a robot that cannot move away
+    /// pushes it, or turns the wrong end to it (the pilot's anchor in this robot's opening).
+    fn anchor_approach_role(&self, i: usize, me: RobotId) -> Option<Role> {
+        let DockFrame {
+            fin,
+            here,
+            normal: (nx, _),
+            ..
+        } = self.dock_frame(i, me)?;
+        let km = self.robots.get(&me)?;
+        let d = self.cfg.dock;
+        // Own connection point at the front (nx = 1: drive forward in) or back (reverse in).
+        let s = nx.signum();
+        // Distance out along the axis, lateral offset, heading error.
+        let out = -s * here[0];
+        let lat = here[1];
+        let yaw_rel = wrap_angle(km.pose.yaw - fin.yaw);
+        // Phase (in `dock_dir`): none = getting to the stand-off, TURNING there, ±1 = in.
+        const TURNING: f64 = 2.0;
+        let mut phase = self.dock_dir.borrow_mut();
+        // In: the line follower steers out twice the stand-off's tolerance (turning on the
+        // spot drifts by about a centimetre).
+        let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
+        let pre = fin.compose(&Pose2::new(-s * d.standoff, 0.0, 0.0));
+        let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
+        match phase.get(&i).copied() {
+            None if dist > d.capture => {
+                // The MPC's point goal goes straight and would push the pilot: on its side
+                // of the stand-off line, first out to a lane beside it, then round.
+                let side = if lat >= 0.0 { d.standoff } else { -d.standoff };
+                let goal = if out < 0.5 * d.standoff && lat.abs() < 0.5 * d.standoff {
+                    fin.compose(&Pose2::new(here[0], side, 0.0))
+                } else if out < 0.8 * d.standoff {
+                    fin.compose(&Pose2::new(-s * d.standoff, side, 0.0))
+                } else {
+                    pre
+                };
+                if (goal.x - km.pose.x).hypot(goal.y - km.pose.y) > 0.15 {
+                    return Some(Role::GoTo {
+                        goal,
+                        use_yaw: false,
+                    });
+                }
+                // Near: a turn-then-drive point law (the MPC's point goal stalls when the
+                // point is beside the robot: a unicycle local minimum).
+                let (v, w) = self.point_drive(&km.pose, [goal.x, goal.y]);
+                return Some(Role::Dock { pair: i, v, w });
+            }
+            None => {
+                phase.insert(i, TURNING);
+                return Some(Role::Hold);
+            }
+            Some(TURNING) if dist > 2.5 * d.capture => {
+                phase.remove(&i);
+                return Some(Role::Hold);
+            }
+            Some(TURNING) if yaw_rel.abs() > 0.1 => {
+                // Turn on the spot, never slower than the wheels' dead-band allows.
+                let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+                return Some(Role::Dock { pair: i, v: 0.0, w });
+            }
+            Some(TURNING) => {
+                phase.insert(i, s);
+            }
+            Some(_) if !on_axis || yaw_rel.abs() > 0.35 => {
+                // Lost the axis: start over from the stand-off.
+                phase.remove(&i);
+                return Some(Role::Hold);
+            }
+            Some(_) => {}
+        }
+        // Line follower along the axis: heading towards the axis in proportion to the
+        // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
+        let target = (-s * d.k_lat * lat).clamp(-d.max_heading, d.max_heading);
+        let w = -d.k_theta * wrap_angle(yaw_rel - target);
+        Some(Role::Dock {
+            pair: i,
+            v: s * d.speed,
+            w,
+        })
+    }
+
+    /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
+    /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
+    /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
+    fn point_drive(&self, pose: &Pose2, goal: [f64; 2]) -> (f64, f64) {
+        let d = self.cfg.dock;
+        let (dx, dy) = (goal[0] - pose.x, goal[1] - pose.y);
+        let mut e = wrap_angle(dy.atan2(dx) - pose.yaw);
+        let mut dir = 1.0;
+        if e.abs() > std::f64::consts::FRAC_PI_2 {
+            e = wrap_angle(e + std::f64::consts::PI);
+            dir = -1.0;
+        }
+        if e.abs() > 0.3 {
+            return (
+                0.0,
+                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
+            );
+        }
+        (dir * d.speed, d.k_theta * e)
+    }
+
     /// Largest relative yaw over the connected anchor pairs inside `members` (rad).
     fn chain_bend(&self, members: &[RobotId]) -> f64 {
         self.pairs
@@ -1528,7 +1642,20 @@ impl Coordinator {
                                 roles.insert(m, (Role::Wait, None));
                             }
                         } else {
-                            let role = self.align_role(i, me);
+                            let other = if me == p.a { p.b } else { p.a };
+                            let partner_waits = members[&segments[&other]]
+                                .iter()
+                                .all(|&m| self.kind_of(m) == RobotKind::Pilot);
+                            let approach = (p.kind == PairType::AnchorOpening
+                                && partner_waits
+                                && members[&seg].len() == 1
+                                && matches!(
+                                    self.pairs[i].status,
+                                    PairStatus::Decoupled | PairStatus::HeadAligned
+                                ))
+                            .then(|| self.anchor_approach_role(i, me))
+                            .flatten();
+                            let role = approach.unwrap_or_else(|| self.align_role(i, me));
                             lead_segment(&mut roles, seg, me, role);
                         }
                     }
@@ -1936,14 +2063,23 @@ mod tests {
     }
 
     #[test]
-    fn lone_pilot_waits_and_non_pilot_aligns() {
+    fn lone_pilot_waits_and_non_pilot_approaches_on_its_axis() {
         let mut c = coordinator();
         let mut robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
         robots[1].kind = RobotKind::Pilot;
         c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
         let tick = c.tick(0.0, &robots);
         assert_eq!(role_of(&tick, 2), &Role::Wait);
-        assert!(matches!(role_of(&tick, 1), Role::Align { partner: 2, .. }));
+        // The staged approach (to the stand-off on the pilot's axis; near it, by the point
+        // law), not the MPC's pair alignment, which pushes a robot that cannot move away.
+        assert!(
+            matches!(
+                role_of(&tick, 1),
+                Role::GoTo { .. } | Role::Dock { pair: 0, .. }
+            ),
+            "robot 1: {:?}",
+            role_of(&tick, 1)
+        );
         assert!(
             tick.tasks
                 .iter()
