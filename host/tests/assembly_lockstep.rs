@@ -465,3 +465,33 @@ fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
         o.truth.coupled
     );
 }
+
+#[test]
+fn a_non_pilot_couples_to_a_waiting_pilot_without_pushing_it() {
+    // THESIS 3.5.2: pilots are not driven until coupled. The non-pilot starts on the wrong
+    // side (facing the pilot's front); it goes round, stands off on the pilot's axis and
+    // drives straight in.
+    for (seed, start) in [(1, [0.12, 0.03, 3.0]), (2, [-0.1, 0.12, -1.2])] {
+        let f = sim(&seeded_fleet_text(
+            seed,
+            &[(1, "Pilot", [0.0, 0.0, 0.3]), (2, "NonPilot", start)],
+        ));
+        let mut ctl = controller(
+            &f,
+            r#"
+name = "pilot"
+[[step]]
+form = { shape = "line", heading_deg = 17 }
+timeout_s = 60
+"#,
+        );
+        let o = run(&f, &mut ctl, asm_events, 65.0, |_, _| {});
+        assert!(finished(&ctl), "start {start:?}: state {:?}", ctl.state());
+        assert!(o.truth.are_coupled(1, 2), "couplings {:?}", o.truth.coupled);
+        let p = xy(&o.truth, 1);
+        assert!(
+            p[0].hypot(p[1]) < 0.01,
+            "start {start:?}: the pilot was pushed to {p:?}"
+        );
+    }
+}
