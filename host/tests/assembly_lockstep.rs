@@ -1,6 +1,6 @@
 //! The assembly behaviours of issue 7 and issue 8 item 4 that `tests/tests/assembly.rs` runs
-//! in real time over loopback (ignored there: flaky on a loaded machine), here in the
-//! simulator's lockstep world: deterministic, faster than real time. What a user cares about
+//! in real time over loopback, here in the simulator's lockstep world: deterministic, faster
+//! than real time, the controller seeing the simulated motion capture. What a user cares about
 //! is judged by the simulator's ground truth (couplings, poses, falls) and the controller's
 //! events (re-planning, gate stops).
 //!
@@ -11,7 +11,9 @@
 //!   (SOCP paper §4, DESIGN.md §7) before it tips: nothing falls;
 //! - four robots form a line and hold it while it drives and turns (as a train);
 //! - four robots form a 2×2 mesh: one row, a lone robot docks at its side (knob), the last
-//!   robot joins by its anchor.
+//!   robot joins by its anchor;
+//! - a non-pilot reaches a waiting pilot from the wrong side without pushing it (THESIS 3.5.2);
+//! - (ignored, failing) the 6-robot, 2-pilot demo.
 
 use std::collections::BTreeSet;
 use std::path::Path;

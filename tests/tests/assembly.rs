@@ -57,10 +57,10 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured: passed 5 of 8 loopback runs on the loaded 2-core \
-            machine): under motion-capture noise and latency the tail pair's relative yaw \
-            sometimes passes the leg-release angle in the turn and it wiggles loose; the same \
-            scenario runs deterministically in CI as host/tests/assembly_lockstep.rs"]
+#[ignore = "flaky in real time (measured 2026-11-22: passed 9 of 11 loopback runs, 3 of 3 in \
+            the test profile): while the line drives straight the tail robot's anchor \
+            sometimes slides out of its predecessor's opening (its yaw swings under pose noise \
+            and latency); the lockstep version in host/tests/assembly_lockstep.rs passes"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -110,10 +110,6 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured: passed 1 of 3 loopback runs): one row forms, a lone \
-            robot docks at its side and the last joins by anchor, but the knob's 1 mm fit under \
-            pose noise and latency often misses within 50 s; the same scenario runs \
-            deterministically in CI as host/tests/assembly_lockstep.rs"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -139,7 +135,6 @@ timeout_s = 50
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky (measured: failed 1 of 8 runs, in a clean-clone CI run): the wiggle did not release the anchor within the 25 s step; the simulator's own wiggle-release test (hil-sim tests/coupling.rs) is deterministic and runs in CI"]
 async fn a_coupled_pair_decouples_and_both_reach_separate_goals() {
     let mut fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -173,7 +168,6 @@ timeout_s = 25
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky (measured: failed 2 of 5 runs on an idle 2-core machine): the lost robot is always declared lost and re-planned out, but the planner can count a pair as connected while the simulator has not coupled it (about 3 mm short)"]
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -215,7 +209,6 @@ timeout_s = 45
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky (measured: failed 3 of 6 runs on an idle 2-core machine): when the simulator has not coupled the line the planner thinks is connected, the move step times out before the gate is reached"]
 async fn a_gap_crossing_assembly_is_stopped_by_the_gate() {
     // hil-sim/scenarios/gap_crossing.toml with a 120 mm gap: wider than half the line's
     // length (75 mm), so the rigid line must stop before its centre of mass passes the edge.
