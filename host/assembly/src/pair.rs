@@ -46,8 +46,9 @@ pub struct PairTolerances {
     /// A state is left only when its condition fails by this factor (> 1): hysteresis
     /// against measurement noise.
     pub hysteresis: f64,
-    /// A connected pair counts as lost only when its insertion condition fails by this
-    /// factor (≥ `hysteresis`).
+    /// A connected pair counts as lost when its held condition fails by this factor (≥ 1):
+    /// a margin for pose noise only — the simulator and the mechanism let go at factor 1, so
+    /// a loose factor would keep counting a pair that has come apart.
     pub release: f64,
     /// Time the insertion must hold before the pair counts as connected (s).
     pub confirm_s: f64,
@@ -66,7 +67,7 @@ impl PairTolerances {
         PairTolerances {
             coupling: *c,
             hysteresis: 1.5,
-            release: 2.0,
+            release: 1.2,
             confirm_s: 0.3,
         }
     }
@@ -293,7 +294,7 @@ impl TrackedPair {
                     }
                 }
                 PairStatus::Connected => {
-                    if !is_held(kind, &m, tol, g, tol.release.max(h)) {
+                    if !is_held(kind, &m, tol, g, tol.release.max(1.0)) {
                         go(self, PairStatus::Decoupled);
                     }
                 }
