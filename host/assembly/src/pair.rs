@@ -67,7 +67,7 @@ impl PairTolerances {
         PairTolerances {
             coupling: *c,
             hysteresis: 1.5,
-            release: 1.2,
+            release: 1.5,
             confirm_s: 0.3,
         }
     }
