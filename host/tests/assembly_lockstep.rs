@@ -87,6 +87,14 @@ fn run<C: Controller>(
     Outcome { run, truth }
 }
 
+/// Did the simulator decouple any pair during the run?
+fn came_apart(o: &Outcome) -> bool {
+    o.run
+        .sim_events
+        .iter()
+        .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. }))
+}
+
 fn asm_events(c: &AssemblyController) -> Vec<String> {
     c.events
         .iter()
@@ -364,11 +372,7 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
     }
     assert!(pose(1).x > 0.15, "the line drove forward: {:?}", pose(1));
     // Nothing came apart on the way: no decoupling in the ground truth.
-    assert!(!o
-        .run
-        .sim_events
-        .iter()
-        .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. })));
+    assert!(!came_apart(&o), "a coupling came apart");
 }
 
 #[test]
@@ -415,11 +419,7 @@ timeout_s = 50
                 tp.pair.kind
             );
         }
-        assert!(!o
-            .run
-            .sim_events
-            .iter()
-            .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. })));
+        assert!(!came_apart(&o), "seed {seed}: a coupling came apart");
     }
 }
 

@@ -700,14 +700,18 @@ impl Coordinator {
         self.push(t, EventKind::BehaviourStarted { name: name.into() });
     }
 
-    /// Segments (connected assemblies) from the connected, unreleased pairs: robot → segment.
-    pub fn segments(&self) -> BTreeMap<RobotId, usize> {
-        let ids: Vec<RobotId> = self
-            .robots
+    /// Robots seen and not lost, by id.
+    fn live_ids(&self) -> Vec<RobotId> {
+        self.robots
             .keys()
             .copied()
             .filter(|id| !self.lost.contains(id))
-            .collect();
+            .collect()
+    }
+
+    /// Segments (connected assemblies) from the connected, unreleased pairs: robot → segment.
+    pub fn segments(&self) -> BTreeMap<RobotId, usize> {
+        let ids = self.live_ids();
         let index: BTreeMap<RobotId, usize> =
             ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
         let mut parent: Vec<usize> = (0..ids.len()).collect();
@@ -861,12 +865,7 @@ impl Coordinator {
         let c = tol.coupling;
         let g = self.geometry;
         let seat = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(&g);
-        let ids: Vec<RobotId> = self
-            .robots
-            .keys()
-            .copied()
-            .filter(|id| !self.lost.contains(id))
-            .collect();
+        let ids = self.live_ids();
         let planned = |a: RobotId, b: RobotId| {
             self.pairs.iter().enumerate().any(|(i, p)| {
                 p.pair.kind == PairType::AnchorOpening
