@@ -119,6 +119,8 @@ pub struct Lockstep {
     stale_us: u64,
     /// Capture time of the last pose given to each robot's velocity estimator (µs).
     estimated: BTreeMap<RobotId, u64>,
+    /// Simulated controller latency: commands apply this long after the tick (µs).
+    command_delay_us: u64,
 }
 
 impl Lockstep {
@@ -173,7 +175,15 @@ impl Lockstep {
             mocap: Some(BTreeMap::new()),
             stale_us: u64::from(scenario.params.rates.pose_stale_after_ms) * 1000,
             estimated: BTreeMap::new(),
+            command_delay_us: 0,
         })
+    }
+
+    /// The controller's commands take effect `ms` after its tick, as on a real host where
+    /// the solve takes time while the fleet moves on (default 0).
+    pub fn command_delay(mut self, ms: f64) -> Self {
+        self.command_delay_us = (ms.max(0.0) * 1000.0) as u64;
+        self
     }
 
     /// The controller sees exact ground-truth poses instead of motion capture.
@@ -218,6 +228,8 @@ impl Lockstep {
         let ctl_period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
         let (mut next_cmd, mut next_ctl) = (start, start);
         let mut cmds: BTreeMap<RobotId, Twist> = BTreeMap::new();
+        let mut pending: std::collections::VecDeque<(u64, BTreeMap<RobotId, Twist>)> =
+            std::collections::VecDeque::new();
         let dt = self.command_period_us as f64 * 1e-6;
         let mut done = false;
         loop {
@@ -272,10 +284,18 @@ impl Lockstep {
                 if now >= next_ctl {
                     next_ctl += ctl_period_us;
                     hook(&mut self.world, t);
-                    cmds = ctl.update(&view);
+                    let new_cmds = ctl.update(&view);
+                    // The controller's own latency (its solve time on a real host): its
+                    // commands take effect `command_delay_us` later.
+                    pending.push_back((now + self.command_delay_us, new_cmds));
                     if ctl.done(t) {
                         done = true;
                         break;
+                    }
+                }
+                while pending.front().is_some_and(|(at, _)| *at <= now) {
+                    if let Some((_, c)) = pending.pop_front() {
+                        cmds = c;
                     }
                 }
                 for rv in &view.robots {

@@ -14,6 +14,11 @@
 //!   robot joins by its anchor;
 //! - a non-pilot reaches a waiting pilot from the wrong side without pushing it (THESIS 3.5.2);
 //! - (ignored, failing) the 6-robot, 2-pilot demo.
+//!
+//! The decoupling, lost-robot and gate tests run with 30 ms of controller latency (a real
+//! host's solve time). The driving line and the mesh fail with 20 ms (measured 2026-11-22:
+//! the tail's anchor slides out while the line drives; the last robot's MPC alignment to the
+//! assembly does not converge) — the failures their real-time loopback versions show; issue 7.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -73,7 +78,22 @@ fn run<C: Controller>(
     limit: f64,
     hook: impl FnMut(&mut World, f64),
 ) -> Outcome {
-    let mut ls = Lockstep::new(fleet).expect("lockstep world");
+    run_with_latency(fleet, ctl, events, limit, 0.0, hook)
+}
+
+/// [`run`] with the controller's commands taking effect `latency_ms` after its tick (a real
+/// host's solve time).
+fn run_with_latency<C: Controller>(
+    fleet: &Scenario,
+    ctl: &mut C,
+    events: impl Fn(&C) -> Vec<String>,
+    limit: f64,
+    latency_ms: f64,
+    hook: impl FnMut(&mut World, f64),
+) -> Outcome {
+    let mut ls = Lockstep::new(fleet)
+        .expect("lockstep world")
+        .command_delay(latency_ms);
     let run = ls.run(ctl, limit, hook);
     for e in events(ctl) {
         println!("  {e}");
@@ -136,7 +156,8 @@ disperse = { tolerance = 0.02, goal = [ { robot = 1, x = -0.15, y = 0.15 }, { ro
 timeout_s = 25
 "#,
     );
-    let o = run(&f, &mut ctl, asm_events, 62.0, |_, _| {});
+    // With 30 ms of controller latency, as a real host's solve time.
+    let o = run_with_latency(&f, &mut ctl, asm_events, 62.0, 30.0, |_, _| {});
     assert!(finished(&ctl), "state {:?}", ctl.state());
     // The simulator saw the anchor come out (not just the planner thinking so).
     let released = o
@@ -182,7 +203,7 @@ timeout_s = 45
 "#,
     );
     let mut switched_off_at = None;
-    let o = run(&f, &mut ctl, asm_events, 50.0, |w, t| {
+    let o = run_with_latency(&f, &mut ctl, asm_events, 50.0, 30.0, |w, t| {
         if switched_off_at.is_none() && t > 1.0 {
             assert!(w.set_online(4, false), "robot 4 exists");
             switched_off_at = Some(t);
@@ -266,7 +287,7 @@ move = { go_to = [0.5, 0.0], tolerance = 0.02 }
 timeout_s = 10
 "#,
     );
-    let o = run(&f, &mut ctl, asm_events, 14.0, |_, _| {});
+    let o = run_with_latency(&f, &mut ctl, asm_events, 14.0, 30.0, |_, _| {});
     let stop = ctl
         .gate_stops
         .first()

@@ -60,7 +60,8 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 #[ignore = "flaky in real time (measured 2026-11-22: passed 9 of 11 loopback runs, 3 of 3 in \
             the test profile): while the line drives straight the tail robot's anchor \
             sometimes slides out of its predecessor's opening (its yaw swings under pose noise \
-            and latency); the lockstep version in host/tests/assembly_lockstep.rs passes"]
+            and latency; reproduced in lockstep with 20 ms of controller latency); the \
+            lockstep version without latency passes"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -113,7 +114,8 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 #[ignore = "flaky in real time (measured 2026-11-22: 11 of 11 runs on this machine, then \
             failed in a clean-clone CI run): the lone robot docked at the row's side, but the \
             last robot joining the 3-robot assembly by anchor (MPC alignment of both sides) \
-            did not couple within 50 s; the lockstep version passes for 16 of 16 seeds"]
+            did not couple within 50 s (reproduced in lockstep with 20 ms of controller \
+            latency); without latency the lockstep version passes for 16 of 16 seeds"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -175,8 +177,8 @@ timeout_s = 25
 #[ignore = "flaky in real time (measured 2026-11-22: 11 of 11 runs on this machine, then \
             failed in a clean-clone CI run): robot 4 is always declared lost and re-planned \
             out, but the host counted pair 1-2 as connected while the simulator had them \
-            apart at the end (the release tolerance is twice the seat's); the lockstep version \
-            passes"]
+            apart at the end (release factor then 2.0, now 1.5: 3 of 3 since); the lockstep \
+            version passes with 30 ms of controller latency"]
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
