@@ -46,6 +46,17 @@ fn seeded_fleet_text(seed: u64, poses: &[(RobotId, &str, [f64; 3])]) -> String {
     s
 }
 
+/// Non-pilots 1–3 nearly in a row along x (slightly out of line and yawed), plus robot `id`
+/// at `pose`.
+fn three_in_a_row_and(id: RobotId, pose: [f64; 3]) -> Scenario {
+    sim(&fleet_text(&[
+        (1, "NonPilot", [0.0, 0.0, 0.0]),
+        (2, "NonPilot", [-0.085, 0.01, 0.1]),
+        (3, "NonPilot", [-0.17, -0.01, -0.1]),
+        (id, "NonPilot", pose),
+    ]))
+}
+
 fn sim(text: &str) -> Scenario {
     Scenario::from_toml(Path::new("fleet.toml"), text).expect("simulator scenario")
 }
@@ -187,12 +198,7 @@ timeout_s = 25
 
 #[test]
 fn a_robot_lost_mid_formation_is_replanned_without_and_the_rest_form_the_line() {
-    let f = sim(&fleet_text(&[
-        (1, "NonPilot", [0.0, 0.0, 0.0]),
-        (2, "NonPilot", [-0.085, 0.01, 0.1]),
-        (3, "NonPilot", [-0.17, -0.01, -0.1]),
-        (4, "NonPilot", [-0.40, 0.1, 0.6]),
-    ]));
+    let f = three_in_a_row_and(4, [-0.40, 0.1, 0.6]);
     let mut ctl = controller(
         &f,
         r#"
@@ -343,12 +349,7 @@ timeout_s = 10
 
 #[test]
 fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
-    let f = sim(&fleet_text(&[
-        (1, "NonPilot", [0.0, 0.0, 0.0]),
-        (2, "NonPilot", [-0.085, 0.01, 0.1]),
-        (3, "NonPilot", [-0.17, -0.01, -0.1]),
-        (4, "NonPilot", [-0.255, 0.0, 0.05]),
-    ]));
+    let f = three_in_a_row_and(4, [-0.255, 0.0, 0.05]);
     let mut ctl = controller(
         &f,
         r#"
