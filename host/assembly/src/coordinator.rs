@@ -1140,7 +1140,9 @@ impl Coordinator {
             return true;
         }
         let mut seen = BTreeSet::new();
-        let mut budget = 20_000usize;
+        // Bounded so a tick stays cheap on large or infeasible plans (each node clones a
+        // partition): at most a few milliseconds per pair.
+        let mut budget = 2_000usize;
         self.completable(after, &pending, &mut seen, &mut budget)
     }
 
