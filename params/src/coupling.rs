@@ -113,7 +113,8 @@ impl Coupling {
     pub fn anchor_seated(&self, g: &Geometry, p: &AnchorProbe, k: f64) -> bool {
         let face = f64::from(g.anchor_opening[0]);
         let seat = face - Self::anchor_depth(g);
-        p.head[0] <= seat + f64::from(self.anchor_seat) * k
+        self.not_past_seat(seat, p, k)
+            && p.head[0] <= seat + f64::from(self.anchor_seat) * k
             && (p.head[1] - f64::from(g.anchor_opening[1])).abs()
                 <= f64::from(self.anchor_align_tolerance) * k
             && p.yaw.abs() <= f64::from(self.anchor_yaw_range) * k
@@ -124,10 +125,18 @@ impl Coupling {
     pub fn anchor_held(&self, g: &Geometry, p: &AnchorProbe, k: f64) -> bool {
         let face = f64::from(g.anchor_opening[0]);
         let seat = face - Self::anchor_depth(g);
-        p.head[0] <= seat + f64::from(self.anchor_travel) * k
+        self.not_past_seat(seat, p, k)
+            && p.head[0] <= seat + f64::from(self.anchor_travel) * k
             && (p.head[1] - f64::from(g.anchor_opening[1])).abs()
                 <= f64::from(self.anchor_align_tolerance) * k
             && p.yaw.abs() <= f64::from(self.anchor_yaw_range) * k
+    }
+
+    /// The head is not further in than the opening allows (the seat, less the anchor's
+    /// travel · k as a margin): a head deeper than that belongs to a robot lying behind this
+    /// one on its centre line, not to an anchor in its opening.
+    fn not_past_seat(&self, seat: f64, p: &AnchorProbe, k: f64) -> bool {
+        p.head[0] >= seat - f64::from(self.anchor_travel) * k
     }
 
     /// A knob is in front of its hole: along within `knob_align_tolerance · k`, the faces
@@ -156,6 +165,19 @@ mod tests {
 
     fn probe(x: f64, y: f64, yaw: f64) -> AnchorProbe {
         AnchorProbe { head: [x, y], yaw }
+    }
+
+    #[test]
+    fn a_head_far_behind_the_seat_is_not_in_the_opening() {
+        let (g, c) = (Geometry::default(), Coupling::default());
+        let seat = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(&g);
+        // On the centre line, seated: in.
+        assert!(c.anchor_seated(&g, &probe(seat, 0.0, 0.0), 1.0));
+        assert!(c.anchor_held(&g, &probe(seat, 0.0, 0.0), 1.0));
+        // On the centre line but a body length further back (a robot behind this one).
+        let behind = seat - f64::from(g.length);
+        assert!(!c.anchor_seated(&g, &probe(behind, 0.0, 0.0), 1.0));
+        assert!(!c.anchor_held(&g, &probe(behind, 0.0, 0.0), 2.0));
     }
 
     #[test]

@@ -159,6 +159,17 @@ struct DockFrame {
     lat: f64,
 }
 
+/// Where a robot's direct-drive manoeuvre for a pair stands (kept between ticks, per pair).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Manoeuvre {
+    /// Side docking: sweeping along the side in this direction (±1).
+    Sweep(f64),
+    /// Anchor approach: at the stand-off, turning onto the axis.
+    Turning,
+    /// Anchor approach: driving in along the axis (±1: forwards / backwards).
+    In(f64),
+}
+
 /// One robot's task.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotTask {
@@ -435,7 +446,7 @@ pub struct Coordinator {
     motion_start: BTreeMap<RobotId, (Pose2, f64)>,
     /// Docking: the current driving direction (±1) per side pair; it reverses only after
     /// the robot passed its place by `DockConfig::overshoot`.
-    dock_dir: std::cell::RefCell<BTreeMap<usize, f64>>,
+    dock_dir: std::cell::RefCell<BTreeMap<usize, Manoeuvre>>,
     /// Anchor couplings outside the plan (anchor robot, opening robot) → when first seen
     /// (s): undone by wiggling before formation goes on.
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
@@ -853,9 +864,8 @@ impl Coordinator {
 
     /// Anchor couplings between robots that no tracked pair covers, from the measured poses
     /// (during formation only: the planner drives the plan's pairs). An anchor counts as in
-    /// when its head is inside the opening (between the seat's far end of travel and the
-    /// seat, [`Coupling::anchor_seated`]) and as out once [`Coupling::anchor_held`] fails by
-    /// the release factor.
+    /// by [`Coupling::anchor_seated`] and as out once [`Coupling::anchor_held`] fails by the
+    /// release factor.
     fn watch_unplanned(&mut self, t: f64) {
         if self.mode != Mode::Form {
             self.unplanned.clear();
@@ -864,7 +874,6 @@ impl Coordinator {
         let tol = self.cfg.tolerances;
         let c = tol.coupling;
         let g = self.geometry;
-        let seat = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(&g);
         let ids = self.live_ids();
         let planned = |a: RobotId, b: RobotId| {
             self.pairs.iter().enumerate().any(|(i, p)| {
@@ -889,14 +898,11 @@ impl Coordinator {
                     yaw: m.yaw_error,
                 };
                 let known = self.unplanned.contains_key(&(a, b));
-                let k = if known { tol.release.max(1.0) } else { 1.0 };
-                let inside = probe.head[0] >= seat - f64::from(c.anchor_travel) * k;
-                let coupled = inside
-                    && if known {
-                        c.anchor_held(&g, &probe, k)
-                    } else {
-                        c.anchor_seated(&g, &probe, k)
-                    };
+                let coupled = if known {
+                    c.anchor_held(&g, &probe, tol.release.max(1.0))
+                } else {
+                    c.anchor_seated(&g, &probe, 1.0)
+                };
                 if coupled {
                     found.push((a, b));
                 }
@@ -1098,7 +1104,11 @@ impl Coordinator {
             if !drivable.contains(&sa) && !drivable.contains(&sb) {
                 continue;
             }
-            if tp.status == PairStatus::Decoupled && !self.startable(&merged, i, !fallback) {
+            // Re-checked against the pairs chosen so far; a pair not startable at the start of
+            // the tick is not searched again.
+            if tp.status == PairStatus::Decoupled
+                && (!startable.contains(&i) || !self.startable(&merged, i, !fallback))
+            {
                 continue;
             }
             busy.insert(sa);
@@ -1272,11 +1282,16 @@ impl Coordinator {
         // the knob clicks in.
         let dir = {
             let mut dirs = self.dock_dir.borrow_mut();
-            let dir = dirs.entry(i).or_insert(sigma);
-            if -*dir * here[0] < -d.overshoot {
-                *dir = -*dir;
+            let state = dirs.entry(i).or_insert(Manoeuvre::Sweep(sigma));
+            let mut dir = match *state {
+                Manoeuvre::Sweep(dir) => dir,
+                _ => sigma,
+            };
+            if -dir * here[0] < -d.overshoot {
+                dir = -dir;
             }
-            *dir
+            *state = Manoeuvre::Sweep(dir);
+            dir
         };
         let v = dir * d.speed;
         // The turning sense that moves the robot towards the partner in this direction.
@@ -1306,8 +1321,7 @@ impl Coordinator {
         let out = -s * here[0];
         let lat = here[1];
         let yaw_rel = wrap_angle(km.pose.yaw - fin.yaw);
-        // Phase (in `dock_dir`): none = getting to the stand-off, TURNING there, ±1 = in.
-        const TURNING: f64 = 2.0;
+        // None: getting to the stand-off (see [`Manoeuvre`]).
         let mut phase = self.dock_dir.borrow_mut();
         // In: the line follower steers out twice the stand-off's tolerance (turning on the
         // spot drifts by about a centimetre).
@@ -1338,27 +1352,27 @@ impl Coordinator {
                 return Some(Role::Dock { pair: i, v, w });
             }
             None => {
-                phase.insert(i, TURNING);
+                phase.insert(i, Manoeuvre::Turning);
                 return Some(Role::Hold);
             }
-            Some(TURNING) if dist > 2.5 * d.capture => {
+            Some(Manoeuvre::Turning) if dist > 2.5 * d.capture => {
                 phase.remove(&i);
                 return Some(Role::Hold);
             }
-            Some(TURNING) if yaw_rel.abs() > 0.1 => {
+            Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
                 // Turn on the spot, never slower than the wheels' dead-band allows.
                 let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
                 return Some(Role::Dock { pair: i, v: 0.0, w });
             }
-            Some(TURNING) => {
-                phase.insert(i, s);
+            Some(Manoeuvre::Turning) => {
+                phase.insert(i, Manoeuvre::In(s));
             }
-            Some(_) if !on_axis || yaw_rel.abs() > 0.35 => {
+            Some(Manoeuvre::In(_) | Manoeuvre::Sweep(_)) if !on_axis || yaw_rel.abs() > 0.35 => {
                 // Lost the axis: start over from the stand-off.
                 phase.remove(&i);
                 return Some(Role::Hold);
             }
-            Some(_) => {}
+            Some(Manoeuvre::In(_) | Manoeuvre::Sweep(_)) => {}
         }
         // Line follower along the axis: heading towards the axis in proportion to the
         // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
