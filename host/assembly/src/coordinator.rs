@@ -9,7 +9,7 @@ use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
 use crate::pair::{is_inserted, measure, PairStatus, PairTolerances, TrackedPair};
 use crate::shape::ShapeSpec;
-use puzzlebot_params::coupling::{AnchorProbe, Coupling};
+use puzzlebot_params::coupling::AnchorProbe;
 use puzzlebot_params::geometry::Geometry;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::messages::RobotId;
@@ -864,7 +864,8 @@ impl Coordinator {
 
     /// Anchor couplings between robots that no tracked pair covers, from the measured poses
     /// (during formation only: the planner drives the plan's pairs). An anchor counts as in
-    /// by [`Coupling::anchor_seated`] and as out once [`Coupling::anchor_held`] fails by the
+    /// by [`puzzlebot_params::coupling::Coupling::anchor_seated`] and as out once
+    /// [`puzzlebot_params::coupling::Coupling::anchor_held`] fails by the
     /// release factor.
     fn watch_unplanned(&mut self, t: f64) {
         if self.mode != Mode::Form {
