@@ -311,6 +311,13 @@ pub enum PlanError {
     /// Two robots share an id.
     #[error("robot id {0} appears twice")]
     DuplicateRobot(RobotId),
+    /// More than one pilot for a grown shape: lone pilots are not driven (THESIS 3.5.2), so
+    /// only the seed may be one.
+    #[error("{0} pilots: a shape grown around one robot takes in at most one pilot (lone pilots are not driven, THESIS 3.5.2; a second one would have to be towed by a train)")]
+    GrowPilots(usize),
+    /// The robot to grow the shape around is not in the fleet.
+    #[error("seed robot {0} is not in the fleet")]
+    UnknownSeed(RobotId),
 }
 
 /// THESIS Algorithm 2 (AssignConnectionPairs): build the shape for the fleet, place it on the
@@ -323,6 +330,75 @@ pub fn assign_connection_pairs(
     heading: Option<f64>,
     g: &Geometry,
 ) -> Result<Plan, PlanError> {
+    check_robots(robots)?;
+    let shape = spec.build(robots.len(), g)?;
+    let poses: Vec<Pose2> = robots.iter().map(|r| r.pose).collect();
+    let heading = heading.unwrap_or_else(|| mean_heading(&poses));
+    let oriented = shape.placed([0.0, 0.0], heading);
+    let goal = align_center(&oriented, &poses);
+    let kinds: Vec<_> = shape.slots.iter().map(|s| s.kind).collect();
+    let (assign, total) = hungarian(&goal, &kinds, robots)?;
+    Ok(plan_from(
+        spec, shape, heading, goal, &assign, total, robots, g,
+    ))
+}
+
+/// Algorithm 2 with the shape grown around robot `seed`, which stays where it is: for every
+/// slot the seed may fill, the shape is placed with that slot on the seed's pose and the
+/// other robots are matched to the other slots (Hungarian); the cheapest placement wins.
+/// Every other robot then joins the seed's assembly alone (a lone pilot is not driven,
+/// THESIS 3.5.2, so a pilot seed is the one robot that need not move).
+pub fn assign_around(
+    spec: &ShapeSpec,
+    robots: &[RobotState],
+    seed: RobotId,
+    g: &Geometry,
+) -> Result<Plan, PlanError> {
+    check_robots(robots)?;
+    let si = robots
+        .iter()
+        .position(|r| r.id == seed)
+        .ok_or(PlanError::UnknownSeed(seed))?;
+    let shape = spec.build(robots.len(), g)?;
+    let kinds: Vec<_> = shape.slots.iter().map(|s| s.kind).collect();
+    let sp = robots[si].pose;
+    let others: Vec<RobotState> = robots
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != si)
+        .map(|(_, r)| *r)
+        .collect();
+    let mut best: Option<(f64, Vec<Pose2>, Vec<usize>, f64)> = None;
+    for (slot, spose) in shape.slots.iter().enumerate() {
+        if !kinds[slot].accepts(robots[si].kind) {
+            continue;
+        }
+        // Shape frame F with F ∘ slot = seed pose.
+        let frame = sp.compose(&spose.pose.inverse());
+        let goal: Vec<Pose2> = shape.slots.iter().map(|x| frame.compose(&x.pose)).collect();
+        let rest: Vec<usize> = (0..goal.len()).filter(|&k| k != slot).collect();
+        let rest_goal: Vec<Pose2> = rest.iter().map(|&k| goal[k]).collect();
+        let rest_kinds: Vec<_> = rest.iter().map(|&k| kinds[k]).collect();
+        let Ok((sub, total)) = hungarian(&rest_goal, &rest_kinds, &others) else {
+            continue;
+        };
+        if best.as_ref().is_some_and(|b| b.0 <= total) {
+            continue;
+        }
+        let mut assign = vec![si; goal.len()];
+        for (n, &k) in rest.iter().enumerate() {
+            let r = sub[n];
+            assign[k] = if r >= si { r + 1 } else { r };
+        }
+        best = Some((total, goal, assign, frame.yaw));
+    }
+    let (total, goal, assign, heading) = best.ok_or(PlanError::KindsUnsatisfiable)?;
+    Ok(plan_from(
+        spec, shape, heading, goal, &assign, total, robots, g,
+    ))
+}
+
+fn check_robots(robots: &[RobotState]) -> Result<(), PlanError> {
     let mut seen = std::collections::HashSet::new();
     for r in robots {
         if !r.pose.is_finite() {
@@ -332,13 +408,21 @@ pub fn assign_connection_pairs(
             return Err(PlanError::DuplicateRobot(r.id));
         }
     }
-    let shape = spec.build(robots.len(), g)?;
-    let poses: Vec<Pose2> = robots.iter().map(|r| r.pose).collect();
-    let heading = heading.unwrap_or_else(|| mean_heading(&poses));
-    let oriented = shape.placed([0.0, 0.0], heading);
-    let goal = align_center(&oriented, &poses);
-    let kinds: Vec<_> = shape.slots.iter().map(|s| s.kind).collect();
-    let (assign, total) = hungarian(&goal, &kinds, robots)?;
+    Ok(())
+}
+
+/// The plan for `shape` placed at `goal`, slot `k` filled by `robots[assign[k]]`.
+#[allow(clippy::too_many_arguments)]
+fn plan_from(
+    spec: &ShapeSpec,
+    shape: crate::shape::Shape,
+    heading: f64,
+    goal: Vec<Pose2>,
+    assign: &[usize],
+    total: f64,
+    robots: &[RobotState],
+    g: &Geometry,
+) -> Plan {
     let slot_robot: Vec<RobotId> = assign.iter().map(|&r| robots[r].id).collect();
     let kind_of = |slot: usize| robots[assign[slot]].kind;
     let goal_pairs = shape.pairs(g);
@@ -361,7 +445,7 @@ pub fn assign_connection_pairs(
             centre_distance: gp.centre_distance,
         });
     }
-    Ok(Plan {
+    Plan {
         spec: spec.clone(),
         shape,
         heading,
@@ -370,7 +454,7 @@ pub fn assign_connection_pairs(
         pairs,
         matching_cost: total,
         pilot_pilot_pairs: pilot_pilot,
-    })
+    }
 }
 
 #[cfg(test)]
@@ -510,6 +594,34 @@ mod tests {
         let a = align_center(&goal, &robots);
         assert!((a[0].x - 5.0).abs() < 1e-12 && (a[0].y - 6.0).abs() < 1e-12);
         assert!((a[1].x - 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_shape_grown_around_a_robot_is_placed_on_it() {
+        // The seed stands askew away from the others; its slot is its own pose, the shape's
+        // heading its heading, and the others fill the remaining slots.
+        let mut robots = vec![
+            robot(1, 0.0, 0.0),
+            robot(2, 0.3, 0.1),
+            robot(3, -0.2, 0.25),
+            robot(4, 0.1, -0.3),
+        ];
+        robots[2].pose.yaw = 0.7;
+        let plan = assign_around(&ShapeSpec::Mesh { rows: 2 }, &robots, 3, &g()).unwrap();
+        let slot = plan.slot_of(3).unwrap();
+        let at = plan.goal_poses[slot];
+        assert!(
+            (at.x + 0.2).abs() < 1e-9 && (at.y - 0.25).abs() < 1e-9,
+            "{at:?}"
+        );
+        assert!((at.yaw - 0.7).abs() < 1e-9 && (plan.heading - 0.7).abs() < 1e-9);
+        let mut ids = plan.slot_robot.clone();
+        ids.sort_unstable();
+        assert_eq!(ids, vec![1, 2, 3, 4]);
+        assert!(matches!(
+            assign_around(&ShapeSpec::Line, &robots, 9, &g()),
+            Err(PlanError::UnknownSeed(9))
+        ));
     }
 
     #[test]

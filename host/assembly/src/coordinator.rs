@@ -4,10 +4,13 @@
 //! distributed MPC. It records every status change with its time, and re-plans without a robot
 //! that is lost (THESIS Algorithm 2 on the remaining fleet).
 
-use crate::assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
+use crate::assign::{
+    assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
+};
 use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
 use crate::pair::{is_inserted, measure, PairStatus, PairTolerances, TrackedPair};
+use crate::route::{route, Field};
 use crate::shape::ShapeSpec;
 use puzzlebot_params::coupling::AnchorProbe;
 use puzzlebot_params::geometry::Geometry;
@@ -147,6 +150,36 @@ impl Default for DockConfig {
     }
 }
 
+/// Centre distance a robot driving to the start of an approach keeps from every other robot
+/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
+pub const ROUTE_CLEARANCE: f64 = 0.075;
+/// Smallest centre distance of the start of an approach to another robot (m): beside an
+/// assembly's side (50 mm bodies, 6 mm off), not closer.
+pub const APPROACH_GAP: f64 = 0.05;
+/// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
+/// the robot backs off to the stand-off and comes in again.
+const IN_PROGRESS: f64 = 0.003;
+/// See [`IN_PROGRESS`] (s).
+const IN_STALL_S: f64 = 3.0;
+/// Anchor approach: this far out from the final place (m) the robot must be on the axis
+/// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
+const IN_CHECK: f64 = 0.015;
+/// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
+const IN_LATERAL: f64 = 0.004;
+/// Largest heading error at [`IN_CHECK`] (rad).
+const IN_YAW: f64 = 0.1;
+/// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
+/// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
+const FLUSH_RUN_IN: f64 = 0.08;
+/// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
+/// knob's 1.5 mm seat gap.
+const FLUSH_OFFSET: f64 = 0.004;
+/// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
+/// the 25 mm to the next wrong hole.
+const FLUSH_CONVERGE: f64 = 0.02;
+/// How far around the robots a route may swing out (m).
+const ROUTE_MARGIN: f64 = 0.3;
+
 /// A docking robot relative to its final pose (see [`Role::Dock`]).
 struct DockFrame {
     /// Final pose: the two connection points on each other.
@@ -166,8 +199,16 @@ enum Manoeuvre {
     Sweep(f64),
     /// Anchor approach: at the stand-off, turning onto the axis.
     Turning,
-    /// Anchor approach: driving in along the axis (±1: forwards / backwards).
-    In(f64),
+    /// Anchor approach: driving along the axis (`dir` ±1: forwards / backwards), in or
+    /// backing off; going in, the nearest it got (`best`, m out) and since when (s).
+    In {
+        /// ±1.
+        dir: f64,
+        /// Smallest distance out so far.
+        best: f64,
+        /// Time of the last progress.
+        since: f64,
+    },
 }
 
 /// One robot's task.
@@ -444,12 +485,19 @@ pub struct Coordinator {
     /// Velocity mode: each segment leader's pose and the time when its motion started (the
     /// origin of the segment's virtual rigid-body reference).
     motion_start: BTreeMap<RobotId, (Pose2, f64)>,
+    /// Velocity mode: each member's measured pose in its leader's frame when the motion
+    /// started (the assembly as it is: anchors bend, so the planned offsets would strain it).
+    motion_offsets: BTreeMap<RobotId, Pose2>,
     /// Docking: the current driving direction (±1) per side pair; it reverses only after
     /// the robot passed its place by `DockConfig::overshoot`.
     dock_dir: std::cell::RefCell<BTreeMap<usize, Manoeuvre>>,
     /// Anchor couplings outside the plan (anchor robot, opening robot) → when first seen
     /// (s): undone by wiggling before formation goes on.
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
+    /// Growing the shape around this robot ([`Coordinator::form_grown`]).
+    grow: Option<RobotId>,
+    /// Time of the current tick (s).
+    now: f64,
 }
 
 /// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
@@ -481,8 +529,11 @@ impl Coordinator {
             pending: Vec::new(),
             complete_reported: false,
             motion_start: BTreeMap::new(),
+            motion_offsets: BTreeMap::new(),
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
             unplanned: BTreeMap::new(),
+            grow: None,
+            now: 0.0,
         }
     }
 
@@ -597,6 +648,7 @@ impl Coordinator {
         let states = self.states();
         let plan = assign_connection_pairs(&spec, &states, heading, &self.geometry)?;
         self.heading = heading;
+        self.grow = None;
         self.install(t, plan, false);
         self.mode = Mode::Form;
         self.push(
@@ -606,6 +658,67 @@ impl Coordinator {
             },
         );
         Ok(self.plan.as_ref().expect("just installed"))
+    }
+
+    /// Start forming `spec` grown around one robot (`seed`; default: the pilot, else the
+    /// robot nearest the fleet's centre), which stays where it is: the shape is placed on it
+    /// ([`assign_around`]) and the other robots join its assembly one at a time, each alone,
+    /// by the staged approaches (stand off, turn, drive in), while the assembly holds still.
+    /// Slower than forming in parallel, but it needs no train to manoeuvre, so it works from
+    /// scattered starts. At most one pilot (a lone pilot is not driven, THESIS 3.5.2).
+    pub fn form_grown(
+        &mut self,
+        t: f64,
+        spec: ShapeSpec,
+        robots: &[RobotState],
+        seed: Option<RobotId>,
+    ) -> Result<&Plan, PlanError> {
+        self.observe(t, robots);
+        let states = self.states();
+        let pilots: Vec<RobotId> = states
+            .iter()
+            .filter(|r| r.kind == RobotKind::Pilot)
+            .map(|r| r.id)
+            .collect();
+        if pilots.len() > 1 {
+            return Err(PlanError::GrowPilots(pilots.len()));
+        }
+        let seed = match (seed, pilots.first()) {
+            (Some(s), Some(&p)) if s != p => return Err(PlanError::GrowPilots(2)),
+            (Some(s), _) => s,
+            (None, Some(&p)) => p,
+            (None, None) => Self::central(&states).ok_or(PlanError::NotEnoughRobots {
+                needed: 1,
+                available: 0,
+            })?,
+        };
+        let plan = assign_around(&spec, &states, seed, &self.geometry)?;
+        self.heading = Some(plan.heading);
+        self.grow = Some(seed);
+        self.install(t, plan, false);
+        self.mode = Mode::Form;
+        self.push(
+            t,
+            EventKind::BehaviourStarted {
+                name: "form".into(),
+            },
+        );
+        Ok(self.plan.as_ref().expect("just installed"))
+    }
+
+    /// The robot nearest the centre of `states`.
+    fn central(states: &[RobotState]) -> Option<RobotId> {
+        let n = states.len() as f64;
+        let cx = states.iter().map(|r| r.pose.x).sum::<f64>() / n;
+        let cy = states.iter().map(|r| r.pose.y).sum::<f64>() / n;
+        states
+            .iter()
+            .min_by(|a, b| {
+                let da = (a.pose.x - cx).hypot(a.pose.y - cy);
+                let db = (b.pose.x - cx).hypot(b.pose.y - cy);
+                da.total_cmp(&db)
+            })
+            .map(|r| r.id)
     }
 
     fn install(&mut self, t: f64, plan: Plan, replanned: bool) {
@@ -668,7 +781,27 @@ impl Coordinator {
             .into_iter()
             .filter(|r| plan.slot_of(r.id).is_some())
             .collect();
-        match assign_connection_pairs(&spec, &states, Some(plan.heading), &self.geometry) {
+        let replan = match self.grow {
+            // Grown around a seed that is still there: around it again, else the most
+            // central robot.
+            Some(seed) => {
+                let seed = if seed == robot {
+                    Self::central(&states)
+                } else {
+                    Some(seed)
+                };
+                self.grow = seed;
+                match seed {
+                    Some(s) => assign_around(&spec, &states, s, &self.geometry),
+                    None => Err(PlanError::NotEnoughRobots {
+                        needed: 1,
+                        available: 0,
+                    }),
+                }
+            }
+            None => assign_connection_pairs(&spec, &states, Some(plan.heading), &self.geometry),
+        };
+        match replan {
             Ok(p) => self.install(t, p, true),
             Err(e) => self.fail_replan(t, e.to_string()),
         }
@@ -708,6 +841,7 @@ impl Coordinator {
         };
         self.mode = mode;
         self.motion_start.clear();
+        self.motion_offsets.clear();
         self.push(t, EventKind::BehaviourStarted { name: name.into() });
     }
 
@@ -757,6 +891,7 @@ impl Coordinator {
     /// One control tick: update statuses from `robots` (measured poses), detect lost robots,
     /// and return every robot's task.
     pub fn tick(&mut self, t: f64, robots: &[RobotState]) -> Tick {
+        self.now = t;
         self.observe(t, robots);
         // Lost robots: planned robots unseen for too long (THESIS: re-plan without them).
         if let Some(plan) = &self.plan {
@@ -829,7 +964,16 @@ impl Coordinator {
                 let leader = self.motion_leader(m);
                 if let Some(k) = self.robots.get(&leader) {
                     let pose = k.pose;
-                    self.motion_start.entry(leader).or_insert((pose, t));
+                    if let std::collections::btree_map::Entry::Vacant(e) =
+                        self.motion_start.entry(leader)
+                    {
+                        e.insert((pose, t));
+                        for &id in m {
+                            if let Some(k) = self.robots.get(&id) {
+                                self.motion_offsets.insert(id, pose.relative(&k.pose));
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -1032,6 +1176,9 @@ impl Coordinator {
     /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
     /// segments so that each segment has one leader, 5.5.9).
     fn choose_active(&self, segments: &BTreeMap<RobotId, usize>) -> Vec<usize> {
+        if let Some(seed) = self.grow {
+            return self.choose_grow(segments, seed);
+        }
         let drivable: BTreeSet<usize> = segments
             .iter()
             .filter(|(id, _)| self.kind_of(**id) == RobotKind::NonPilot)
@@ -1123,6 +1270,56 @@ impl Coordinator {
             }
         }
         active
+    }
+
+    /// Growing around `seed`: the pair in progress, else the pair by which the nearest lone
+    /// non-pilot joins the seed's assembly (the rest of the plan still possible after it).
+    fn choose_grow(&self, segments: &BTreeMap<RobotId, usize>, seed: RobotId) -> Vec<usize> {
+        let Some(&home) = segments.get(&seed) else {
+            return Vec::new();
+        };
+        let open = |i: usize| !self.released.contains(&i);
+        let joins = |i: usize| {
+            let p = &self.pairs[i].pair;
+            let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
+            let lone = |id: RobotId, s: Option<&usize>| {
+                s.is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
+                    && self.kind_of(id) == RobotKind::NonPilot
+            };
+            if sa == Some(&home) && sb != Some(&home) && lone(p.b, sb) {
+                Some(p.b)
+            } else if sb == Some(&home) && sa != Some(&home) && lone(p.a, sa) {
+                Some(p.a)
+            } else {
+                None
+            }
+        };
+        if let Some(i) = (0..self.pairs.len()).find(|&i| {
+            open(i)
+                && matches!(
+                    self.pairs[i].status,
+                    PairStatus::HeadAligned | PairStatus::HeadInserted
+                )
+                && joins(i).is_some()
+        }) {
+            return vec![i];
+        }
+        (0..self.pairs.len())
+            .filter(|&i| open(i) && self.pairs[i].status == PairStatus::Decoupled)
+            .filter_map(|i| joins(i).map(|me| (i, me)))
+            .filter(|&(i, _)| self.startable(segments, i, true))
+            .min_by(|&(i, a), &(j, b)| {
+                // Convex-first (rows before the side joins, THESIS 5.2.2), then the nearest.
+                let bucket =
+                    |k: usize| crate::assign::distance_bucket(self.pairs[k].pair.centre_distance);
+                let d = |k: usize, me: RobotId| {
+                    self.dock_frame(k, me)
+                        .map_or(f64::INFINITY, |f| f.here[0].hypot(f.here[1]))
+                };
+                bucket(i).cmp(&bucket(j)).then(d(i, a).total_cmp(&d(j, b)))
+            })
+            .map(|(i, _)| vec![i])
+            .unwrap_or_default()
     }
 
     /// Can pair `i` be connected now, given robot → segment `merged`, and every other
@@ -1268,11 +1465,31 @@ impl Coordinator {
             // Drive to the start of the approach, `run_in` behind (ahead of) the final place
             // and `offset` outside it (a point goal for the MPC: a unicycle cannot be parked
             // sideways; the approach law takes over anywhere near it).
-            let pre = [-sigma * d.run_in - nx * d.offset, -ny * d.offset];
-            return Some(Role::GoTo {
-                goal: fin.compose(&Pose2::new(pre[0], pre[1], 0.0)),
-                use_yaw: false,
-            });
+            // The start of the approach from the nearer end, or from the other end when the
+            // nearer one is blocked by a robot; reached round the other robots.
+            let pre = |sg: f64| {
+                fin.compose(&Pose2::new(
+                    -sg * d.run_in - nx * d.offset,
+                    -ny * d.offset,
+                    0.0,
+                ))
+            };
+            let field_gap = |p: &Pose2| self.clear_distance(me, p.xy());
+            let mut goal = pre(sigma);
+            if field_gap(&goal) < APPROACH_GAP && field_gap(&pre(-sigma)) > field_gap(&goal) {
+                goal = pre(-sigma);
+            }
+            let dist = (goal.x - km.pose.x).hypot(goal.y - km.pose.y);
+            if dist > d.capture {
+                let Some(next) = self.route_step(me, goal.xy()) else {
+                    return Some(Role::Hold);
+                };
+                let (v, w) = self.point_drive(&km.pose, next);
+                return Some(Role::Dock { pair: i, v, w });
+            }
+            // There: turn on the spot to the approach heading.
+            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+            return Some(Role::Dock { pair: i, v: 0.0, w });
         }
         // Converge on the partner's side with the heading proportional to the lateral
         // distance: at k_lat · half a body length < 1 the front corner never reaches the
@@ -1327,29 +1544,34 @@ impl Coordinator {
         // In: the line follower steers out twice the stand-off's tolerance (turning on the
         // spot drifts by about a centimetre).
         let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
-        let pre = fin.compose(&Pose2::new(-s * d.standoff, 0.0, 0.0));
+        // The stand-off: on the axis, the nearest point from `standoff` out that is clear of
+        // every other robot (beside an assembly the axis may run between robots).
+        // When the axis runs between robots, the line follower gets `FLUSH_RUN_IN` more to
+        // converge before the robot slides in beside them (askew, it would push them).
+        let standoff = (0..=12)
+            .map(|k| d.standoff + 0.02 * k as f64)
+            .find(|&sd| {
+                let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
+                self.clear_distance(me, p.xy()) >= ROUTE_CLEARANCE
+            })
+            .map_or(d.standoff, |sd| {
+                if sd > d.standoff {
+                    sd + FLUSH_RUN_IN
+                } else {
+                    sd
+                }
+            });
+        let pre = fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
         let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
         match phase.get(&i).copied() {
             None if dist > d.capture => {
-                // The MPC's point goal goes straight and would push the pilot: on its side
-                // of the stand-off line, first out to a lane beside it, then round.
-                let side = if lat >= 0.0 { d.standoff } else { -d.standoff };
-                let goal = if out < 0.5 * d.standoff && lat.abs() < 0.5 * d.standoff {
-                    fin.compose(&Pose2::new(here[0], side, 0.0))
-                } else if out < 0.8 * d.standoff {
-                    fin.compose(&Pose2::new(-s * d.standoff, side, 0.0))
-                } else {
-                    pre
+                // Round every other robot (the MPC's point goal goes straight and would push
+                // the partner), with a turn-then-drive point law (the MPC's point goal stalls
+                // when the point is beside the robot: a unicycle local minimum).
+                let Some(next) = self.route_step(me, pre.xy()) else {
+                    return Some(Role::Hold);
                 };
-                if (goal.x - km.pose.x).hypot(goal.y - km.pose.y) > 0.15 {
-                    return Some(Role::GoTo {
-                        goal,
-                        use_yaw: false,
-                    });
-                }
-                // Near: a turn-then-drive point law (the MPC's point goal stalls when the
-                // point is beside the robot: a unicycle local minimum).
-                let (v, w) = self.point_drive(&km.pose, [goal.x, goal.y]);
+                let (v, w) = self.point_drive(&km.pose, next);
                 return Some(Role::Dock { pair: i, v, w });
             }
             None => {
@@ -1366,22 +1588,85 @@ impl Coordinator {
                 return Some(Role::Dock { pair: i, v: 0.0, w });
             }
             Some(Manoeuvre::Turning) => {
-                phase.insert(i, Manoeuvre::In(s));
+                phase.insert(
+                    i,
+                    Manoeuvre::In {
+                        dir: s,
+                        best: out,
+                        since: self.now,
+                    },
+                );
             }
-            Some(Manoeuvre::In(_) | Manoeuvre::Sweep(_)) if !on_axis || yaw_rel.abs() > 0.35 => {
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_))
+                if !on_axis || yaw_rel.abs() > 0.35 =>
+            {
                 // Lost the axis: start over from the stand-off.
                 phase.remove(&i);
                 return Some(Role::Hold);
             }
-            Some(Manoeuvre::In(_) | Manoeuvre::Sweep(_)) => {}
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_)) => {}
         }
+        // Going in (dir = s), or backing off (dir = −s) when the robot is about to touch
+        // the partner still off the axis or askew (it would push it, not couple), until it
+        // is back at the stand-off.
+        let (mut dir, mut best, mut since) = match phase.get(&i) {
+            Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
+            _ => (s, out, self.now),
+        };
+        if out < best - IN_PROGRESS {
+            (best, since) = (out, self.now);
+        }
+        // Only towards a lone partner: beside an assembly the robot slides along its side,
+        // where a knob may click in on the way (it is right once the robot is in place),
+        // and backing off would drag the assembly.
+        let lone_partner = self.pairs.get(i).is_some_and(|tp| {
+            let partner = if tp.pair.a == me {
+                tp.pair.b
+            } else {
+                tp.pair.a
+            };
+            self.connected_pairs_of(partner).iter().all(|&k| k == i)
+        });
+        let askew =
+            lone_partner && out < IN_CHECK && (lat.abs() > IN_LATERAL || yaw_rel.abs() > IN_YAW);
+        // Stalled: pressing against the partner's edge instead of entering its opening.
+        let stalled = self.now - since > IN_STALL_S;
+        if dir == s && (askew || stalled) {
+            dir = -s;
+        } else if dir != s && out >= standoff {
+            (dir, best, since) = (s, out, self.now);
+        }
+        phase.insert(i, Manoeuvre::In { dir, best, since });
         // Line follower along the axis: heading towards the axis in proportion to the
         // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
-        let target = (-s * d.k_lat * lat).clamp(-d.max_heading, d.max_heading);
+        // Beside other robots (the axis runs along an assembly's side) the robot keeps
+        // `FLUSH_OFFSET` away from them until the last `FLUSH_CONVERGE`: sliding flush, its
+        // knobs would click into their holes at the wrong place.
+        let partner = self.pairs.get(i).map(|tp| {
+            if tp.pair.a == me {
+                tp.pair.b
+            } else {
+                tp.pair.a
+            }
+        });
+        let beside: f64 = self
+            .robots
+            .iter()
+            .filter(|(id, _)| **id != me && Some(**id) != partner && !self.lost.contains(id))
+            .map(|(_, k)| fin.inverse_transform(k.pose.xy()))
+            .filter(|o| o[1].abs() < 0.08 && -s * o[0] > -0.05 && -s * o[0] < out + 0.05)
+            .map(|o| o[1].signum())
+            .sum();
+        let lat_goal = if out > FLUSH_CONVERGE {
+            -beside.signum() * FLUSH_OFFSET
+        } else {
+            0.0
+        };
+        let target = (-dir * d.k_lat * (lat - lat_goal)).clamp(-d.max_heading, d.max_heading);
         let w = -d.k_theta * wrap_angle(yaw_rel - target);
         Some(Role::Dock {
             pair: i,
-            v: s * d.speed,
+            v: dir * d.speed,
             w,
         })
     }
@@ -1405,6 +1690,39 @@ impl Coordinator {
             );
         }
         (dir * d.speed, d.k_theta * e)
+    }
+
+    /// Centres of every live robot but `me`.
+    fn others(&self, me: RobotId) -> Vec<[f64; 2]> {
+        self.robots
+            .iter()
+            .filter(|(id, _)| **id != me && !self.lost.contains(id))
+            .map(|(_, k)| k.pose.xy())
+            .collect()
+    }
+
+    /// Distance from `p` to the nearest robot other than `me` (m).
+    fn clear_distance(&self, me: RobotId, p: [f64; 2]) -> f64 {
+        let obstacles = self.others(me);
+        Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        }
+        .nearest(p)
+    }
+
+    /// The next waypoint of robot `me` on its way to `goal` round every other robot
+    /// ([`crate::route`]); None when there is no way (it waits).
+    fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        let start = self.robots.get(&me)?.pose.xy();
+        let obstacles = self.others(me);
+        let field = Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        };
+        route(start, goal, &field, APPROACH_GAP, ROUTE_MARGIN)?
+            .first()
+            .copied()
     }
 
     /// Largest relative yaw over the connected anchor pairs inside `members` (rad).
@@ -1535,12 +1853,37 @@ impl Coordinator {
         m
     }
 
-    /// Leader of a segment for assembly motion: the lowest-id non-pilot, else the lowest id.
+    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the lowest-id
+    /// non-pilot; of a rigid assembly the non-pilot heading closest to the members' mean
+    /// heading (a robot hanging askew at an anchor would lead the rigid rest sideways);
+    /// without non-pilots the lowest id.
     fn motion_leader(&self, members: &[RobotId]) -> RobotId {
-        members
+        let first = members
             .iter()
             .copied()
             .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .unwrap_or(members[0]);
+        if self.chain_towards(members, first).is_some() {
+            // A chain of anchors moves as a train behind its head.
+            return first;
+        }
+        let poses: Vec<Pose2> = members
+            .iter()
+            .filter_map(|id| self.robots.get(id).map(|k| k.pose))
+            .collect();
+        let mean = crate::assign::mean_heading(&poses);
+        members
+            .iter()
+            .copied()
+            .filter(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .min_by(|&a, &b| {
+                let off = |id: RobotId| {
+                    self.robots
+                        .get(&id)
+                        .map_or(f64::INFINITY, |k| wrap_angle(k.pose.yaw - mean).abs())
+                };
+                off(a).total_cmp(&off(b))
+            })
             .unwrap_or(members[0])
     }
 
@@ -1576,7 +1919,11 @@ impl Coordinator {
                     roles.insert(m, (self.align_role(i, m), Some(leader)));
                     continue;
                 }
-                let offset = self.follow_offset(m, leader);
+                let offset = self
+                    .motion_offsets
+                    .get(&m)
+                    .copied()
+                    .unwrap_or_else(|| self.follow_offset(m, leader));
                 let own = match &role {
                     Role::Track { reference } => Role::Track {
                         reference: reference.iter().map(|p| p.compose(&offset)).collect(),
@@ -1618,7 +1965,12 @@ impl Coordinator {
                         let near = self
                             .dock_frame(i, me)
                             .is_none_or(|f| f.lat < self.cfg.dock.clearance);
-                        if !near && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend {
+                        // Not while growing: the assembly holds still (a pilot in it may keep
+                        // it bent, and it would drive on and on).
+                        if !near
+                            && self.grow.is_none()
+                            && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend
+                        {
                             // A bent chain's corners block the approach lane: the assembly
                             // first drives straight ahead (a train straightens behind its
                             // head); the docking robot waits.
@@ -1647,8 +1999,16 @@ impl Coordinator {
                             continue;
                         }
                     }
+                    let home = self.grow.and_then(|seed| segments.get(&seed).copied());
                     for me in [p.a, p.b] {
                         let seg = segments[&me];
+                        if home == Some(seg) {
+                            // Growing: the assembly holds still while a robot joins it.
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                            continue;
+                        }
                         let alone_pilot = members[&seg]
                             .iter()
                             .all(|&m| self.kind_of(m) == RobotKind::Pilot);
@@ -1659,9 +2019,10 @@ impl Coordinator {
                             }
                         } else {
                             let other = if me == p.a { p.b } else { p.a };
-                            let partner_waits = members[&segments[&other]]
-                                .iter()
-                                .all(|&m| self.kind_of(m) == RobotKind::Pilot);
+                            let partner_waits = home == Some(segments[&other])
+                                || members[&segments[&other]]
+                                    .iter()
+                                    .all(|&m| self.kind_of(m) == RobotKind::Pilot);
                             let approach = (p.kind == PairType::AnchorOpening
                                 && partner_waits
                                 && members[&seg].len() == 1
@@ -2076,6 +2437,36 @@ mod tests {
             .events()
             .iter()
             .any(|e| matches!(e.kind, EventKind::ReplanFailed { .. })));
+    }
+
+    #[test]
+    fn growing_takes_one_pilot_as_its_seed_and_holds_the_assembly_still() {
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.2, 1.0),
+            np(3, -0.3, 0.1, 2.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        robots[2].kind = RobotKind::Pilot;
+        assert!(matches!(
+            c.form_grown(0.0, ShapeSpec::Line, &robots, None),
+            Err(PlanError::GrowPilots(2))
+        ));
+        robots[2].kind = RobotKind::NonPilot;
+        let plan = c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
+        // Built on the pilot, where it stands.
+        let at = plan.goal_poses[plan.slot_of(1).unwrap()];
+        assert!(at.x.abs() < 1e-9 && at.y.abs() < 1e-9 && at.yaw.abs() < 1e-9);
+        let tick = c.tick(0.0, &robots);
+        // One robot at a time joins the pilot; the pilot is not driven, the other waits.
+        assert_eq!(tick.active.len(), 1);
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        let moving: Vec<RobotId> = [2, 3]
+            .into_iter()
+            .filter(|&id| matches!(role_of(&tick, id), Role::Dock { .. } | Role::GoTo { .. }))
+            .collect();
+        assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
     }
 
     #[test]

@@ -64,6 +64,11 @@ impl Pose2 {
         Pose2::new(x, y, wrap_angle(other.yaw - self.yaw))
     }
 
+    /// The inverse transform: self⁻¹, with self ∘ self⁻¹ = identity.
+    pub fn inverse(&self) -> Pose2 {
+        self.relative(&Pose2::default())
+    }
+
     /// Euclidean distance between the positions.
     pub fn distance(&self, other: &Pose2) -> f64 {
         (self.x - other.x).hypot(self.y - other.y)

@@ -22,10 +22,13 @@ pub mod coordinator;
 pub mod geom;
 pub mod info;
 pub mod pair;
+pub mod route;
 pub mod scenario;
 pub mod shape;
 
-pub use assign::{assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState};
+pub use assign::{
+    assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
+};
 pub use coordinator::{
     Coordinator, CoordinatorConfig, Event, EventKind, MaintainPair, Mode, RobotTask, Role, Tick,
 };
@@ -33,5 +36,5 @@ pub use geom::{ConnPoint, PairType, Pose2};
 pub use info::{shape_info, ShapeInfo};
 pub use pair::{PairStatus, PairTolerances, TrackedPair, Transition};
 pub use puzzlebot_protocol::messages::RobotId;
-pub use scenario::{Behaviour, RunState, Scenario, ScenarioError, ScenarioRunner, Step};
+pub use scenario::{Behaviour, Grow, RunState, Scenario, ScenarioError, ScenarioRunner, Step};
 pub use shape::{GoalPair, Shape, ShapeError, ShapeSpec, SlotKind};

@@ -89,7 +89,8 @@ impl TryFrom<f64> for Finite {
     }
 }
 
-/// `form = { shape = "line" | "mesh" | "path/to/shape.toml", rows = 2, heading_deg = 0 }`.
+/// `form = { shape = "line" | "mesh" | "path/to/shape.toml", rows = 2, heading_deg = 0 }`, or
+/// grown around one robot: `form = { shape = "mesh", rows = 2, grow = true, seed = 3 }`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FormFile {
@@ -98,6 +99,10 @@ struct FormFile {
     rows: Option<usize>,
     #[serde(default)]
     heading_deg: Option<Finite>,
+    #[serde(default)]
+    grow: bool,
+    #[serde(default)]
+    seed: Option<RobotId>,
 }
 
 /// `hold = { duration_s = 2 }`.
@@ -206,6 +211,14 @@ struct ScenarioFile {
 /// Default goal tolerance (m).
 pub const DEFAULT_TOLERANCE: f64 = 0.02;
 
+/// How a shape is grown around one robot (`form = { grow = true, seed = ID }`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Grow {
+    /// The robot the shape is built around; default: the pilot, else the robot nearest the
+    /// fleet's centre.
+    pub seed: Option<RobotId>,
+}
+
 /// One behaviour of a scenario.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "behaviour")]
@@ -216,6 +229,9 @@ pub enum Behaviour {
         spec: ShapeSpec,
         /// Heading of the shape (rad); default: mean robot heading.
         heading: Option<f64>,
+        /// Grow the shape around one robot, one lone robot joining at a time
+        /// ([`crate::Coordinator::form_grown`]); the heading is the seed's.
+        grow: Option<Grow>,
     },
     /// Stand still for a while, keeping couplings.
     Hold {
@@ -408,9 +424,19 @@ impl Scenario {
                         ShapeSpec::Fixed(shape)
                     }
                 };
+                let grow = (f.grow || f.seed.is_some()).then_some(Grow { seed: f.seed });
+                if grow.is_some() && f.heading_deg.is_some() {
+                    return Err(invalid(
+                        f.shape.span(),
+                        field("form.heading_deg"),
+                        "a grown shape takes its seed robot's heading; drop heading_deg or grow"
+                            .into(),
+                    ));
+                }
                 Behaviour::Form {
                     spec,
                     heading: f.heading_deg.map(|d| d.0.to_radians()),
+                    grow,
                 }
             } else if let Some(h) = &s.hold {
                 Behaviour::Hold {
@@ -674,8 +700,20 @@ impl ScenarioRunner {
         );
         let c = &mut self.coordinator;
         match step.behaviour {
-            Behaviour::Form { spec, heading } => {
+            Behaviour::Form {
+                spec,
+                heading,
+                grow: None,
+            } => {
                 c.form(t, spec, robots, heading)
+                    .map_err(|e| e.to_string())?;
+            }
+            Behaviour::Form {
+                spec,
+                grow: Some(g),
+                ..
+            } => {
+                c.form_grown(t, spec, robots, g.seed)
                     .map_err(|e| e.to_string())?;
             }
             Behaviour::Hold { .. } => c.set_mode(t, Mode::Hold),
@@ -904,7 +942,8 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
             s.steps[0].behaviour,
             Behaviour::Form {
                 spec: ShapeSpec::Mesh { rows: 2 },
-                heading: None
+                heading: None,
+                grow: None,
             }
         );
         assert_eq!(s.steps[0].timeout_s, Some(120.0));
@@ -967,6 +1006,21 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
             e.starts_with("run.toml:3:") && e.contains("move.go_to"),
             "{e}"
         );
+        // A grown shape takes its seed's heading.
+        let e = err("[[step]]\nform = { shape = \"mesh\", grow = true, heading_deg = 0 }\n");
+        assert!(
+            e.starts_with("run.toml:2:") && e.contains("form.heading_deg"),
+            "{e}"
+        );
+        // A seed implies growing.
+        let s = parse("[[step]]\nform = { shape = \"line\", seed = 3 }\n").unwrap();
+        assert!(matches!(
+            s.steps[0].behaviour,
+            Behaviour::Form {
+                grow: Some(Grow { seed: Some(3) }),
+                ..
+            }
+        ));
         // Missing shape file.
         let e = err("[[step]]\nform = { shape = \"nope.toml\" }\n");
         assert!(
