@@ -527,10 +527,11 @@ fn six_scattered_robots_grow_a_two_row_mesh_around_their_pilot() {
     // The formation a user starts from: robots dropped anywhere. Forming in parallel needs
     // trains to manoeuvre onto each other; grown around the pilot (which is never driven
     // alone, THESIS 3.5.2), every robot joins the assembly alone, routed round the others.
-    // Measured 2026-11-22 over seeds 1–12: 7 form within 240 s, 5 of them without moving the
-    // pilot by more than 2 cm / 0.15 rad (a joining robot bumps a row its anchors left bent);
-    // seeds 1 and 3 are two of those five.
-    for seed in [1, 3] {
+    // Measured 2026-11-22 over seeds 1–12: 7 form within 240 s, none of them moving the pilot
+    // by more than 2 cm / 0.15 rad; the other 5 time out (a joining robot bumps a row its
+    // anchors left bent, or its knob clicks in at the wrong place). Seeds 3 and 6 are two of
+    // the seven.
+    for seed in [3, 6] {
         println!("seed {seed}");
         let f = puzzlebot_host::assemble::scattered_fleet(6, 1, seed);
         let mut ctl = controller(

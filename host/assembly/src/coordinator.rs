@@ -163,11 +163,11 @@ const IN_PROGRESS: f64 = 0.003;
 const IN_STALL_S: f64 = 3.0;
 /// Anchor approach: this far out from the final place (m) the robot must be on the axis
 /// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
-const IN_CHECK: f64 = 0.015;
+const IN_CHECK: f64 = 0.01;
 /// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
-const IN_LATERAL: f64 = 0.004;
+const IN_LATERAL: f64 = 0.005;
 /// Largest heading error at [`IN_CHECK`] (rad).
-const IN_YAW: f64 = 0.1;
+const IN_YAW: f64 = 0.2;
 /// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
 /// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
 const FLUSH_RUN_IN: f64 = 0.08;
@@ -1484,8 +1484,7 @@ impl Coordinator {
                 let Some(next) = self.route_step(me, goal.xy()) else {
                     return Some(Role::Hold);
                 };
-                let (v, w) = self.point_drive(&km.pose, next);
-                return Some(Role::Dock { pair: i, v, w });
+                return Some(self.drive_to(i, &km.pose, next));
             }
             // There: turn on the spot to the approach heading.
             let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
@@ -1571,8 +1570,7 @@ impl Coordinator {
                 let Some(next) = self.route_step(me, pre.xy()) else {
                     return Some(Role::Hold);
                 };
-                let (v, w) = self.point_drive(&km.pose, next);
-                return Some(Role::Dock { pair: i, v, w });
+                return Some(self.drive_to(i, &km.pose, next));
             }
             None => {
                 phase.insert(i, Manoeuvre::Turning);
@@ -1690,6 +1688,19 @@ impl Coordinator {
             );
         }
         (dir * d.speed, d.k_theta * e)
+    }
+
+    /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
+    /// point law near it (the MPC's point goal stalls beside the robot).
+    fn drive_to(&self, i: usize, pose: &Pose2, p: [f64; 2]) -> Role {
+        if (p[0] - pose.x).hypot(p[1] - pose.y) > 0.15 {
+            return Role::GoTo {
+                goal: Pose2::new(p[0], p[1], pose.yaw),
+                use_yaw: false,
+            };
+        }
+        let (v, w) = self.point_drive(pose, p);
+        Role::Dock { pair: i, v, w }
     }
 
     /// Centres of every live robot but `me`.
