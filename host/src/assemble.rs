@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use puzzlebot_assembly::{
-    shape_info, Coordinator, CoordinatorConfig, Event, MaintainPair, Mode, PairStatus,
+    shape_info, Coordinator, CoordinatorConfig, Event, EventKind, MaintainPair, Mode, PairStatus,
     PairTolerances, PairType, Pose2, RobotState, Role, RunState, Scenario as AsmScenario,
     ScenarioRunner, Shape,
 };
@@ -397,6 +397,22 @@ impl Controller for AssemblyController {
             .collect();
         self.seen.extend(states.iter().map(|s| s.id));
         let tick = self.runner.tick(t, &states);
+        // Progress on the console: steps, couplings, formation, lost robots.
+        for e in &tick.events {
+            let milestone = match &e.kind {
+                EventKind::PairStatus { to, .. } => *to == PairStatus::Connected,
+                EventKind::StepStarted { .. }
+                | EventKind::StepFinished { .. }
+                | EventKind::StepFailed { .. }
+                | EventKind::FormationComplete
+                | EventKind::RobotLost { .. }
+                | EventKind::Replanned { .. } => true,
+                _ => false,
+            };
+            if milestone {
+                tracing::info!(t = format!("{:.1}", e.t), event = %serde_json::to_string(&e.kind).unwrap_or_default(), "assembly");
+            }
+        }
         self.events.extend(tick.events.iter().cloned());
         if !matches!(self.runner.state(), RunState::Running { .. }) && self.finished_at.is_none() {
             self.finished_at = Some(t);
@@ -601,7 +617,50 @@ pub async fn run_scenario(
     write_events(&mut folder, &ctl)?;
     folder.finish()?;
     folder.write_json("summary.json", &summary)?;
-    let truth = h.fleet.ground_truth();
+    let report = report_of(&folder, &ctl, summary, &h.fleet.ground_truth());
+    folder.write_json("assembly_report.json", &report)?;
+    h.shutdown().await;
+    Ok(report)
+}
+
+/// [`run_scenario`] with the host's controller stepped in lockstep with the simulator
+/// ([`crate::lockstep`]: no sockets, no wall clock, the simulated motion capture as pose
+/// input): deterministic, faster than real time. The run folder gets the same event files;
+/// there is no link telemetry.
+pub fn run_scenario_lockstep(
+    scenario: AsmScenario,
+    sim: puzzlebot_sim::Scenario,
+    runs_dir: &Path,
+    max_duration: f64,
+) -> anyhow::Result<AssemblyReport> {
+    let gate = GateConfig {
+        terrain: sim.terrain.clone(),
+        ..GateConfig::default()
+    };
+    let params = sim.params.clone();
+    let name = format!("assembly-{}", scenario.name);
+    let mut ls = crate::lockstep::Lockstep::new(&sim)?;
+    let mut ctl = AssemblyController::new(scenario, params, gate)?;
+    let mut folder = RunFolder::create(runs_dir, &name)?;
+    ls.run(&mut ctl, max_duration, |_, _| {});
+    write_events(&mut folder, &ctl)?;
+    folder.finish()?;
+    let report = report_of(
+        &folder,
+        &ctl,
+        RunSummary::default(),
+        &ls.world.ground_truth(),
+    );
+    folder.write_json("assembly_report.json", &report)?;
+    Ok(report)
+}
+
+fn report_of(
+    folder: &RunFolder,
+    ctl: &AssemblyController,
+    summary: RunSummary,
+    truth: &puzzlebot_sim::GroundTruth,
+) -> AssemblyReport {
     let final_poses = truth
         .robots
         .iter()
@@ -616,7 +675,7 @@ pub async fn run_scenario(
             }
         }
     }
-    let report = AssemblyReport {
+    AssemblyReport {
         folder: folder.dir().to_path_buf(),
         state: ctl.state().clone(),
         events: ctl.events.clone(),
@@ -632,10 +691,7 @@ pub async fn run_scenario(
             .filter(|r| r.fallen)
             .map(|r| r.id)
             .collect(),
-    };
-    folder.write_json("assembly_report.json", &report)?;
-    h.shutdown().await;
-    Ok(report)
+    }
 }
 
 fn write_events(folder: &mut RunFolder, ctl: &AssemblyController) -> anyhow::Result<()> {
@@ -754,9 +810,21 @@ pub fn mode_name(m: &Mode) -> &'static str {
     }
 }
 
-/// The assembly demo scenario (a copy of host/assembly/data/scenarios/demo.toml, embedded so
-/// the binary runs from any directory).
+/// Issue 7's full demo scenario (host/assembly/data/scenarios/demo.toml, embedded so the
+/// binary runs from any directory): two pilots, form, move, dissolve, disperse. Does not finish
+/// yet (README, Status).
 pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
+
+/// What `puzzlebot demo --assembly` runs (host/assembly/data/scenarios/grow_mesh.toml): a 2-row
+/// mesh grown around the pilot of [`grow_demo_fleet`], driven 0.5 m.
+pub const GROW_DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/grow_mesh.toml");
+
+/// The fleet of `puzzlebot demo --assembly`: six robots, one pilot, scattered over
+/// 0.6 m × 0.6 m. Seed 5 is a start the mesh grows from and drives intact; over seeds 1–12,
+/// 7 form and 4 of them drive intact (README, Status).
+pub fn grow_demo_fleet() -> puzzlebot_sim::Scenario {
+    scattered_fleet(6, 1, 5)
+}
 
 /// The assembly library, for callers of this module (tests, tools).
 pub use puzzlebot_assembly as assembly;

@@ -41,10 +41,15 @@ enum ModeArg {
 enum Cmd {
     /// In-process simulated fleet of 4 robots over loopback: lines and circles (default).
     Demo {
-        /// The assembly demo instead: 6 scattered robots (2 pilots) form a 2-row mesh, move it
-        /// 0.5 m, dissolve it and disperse (host/assembly/data/scenarios/demo.toml).
+        /// The assembly demo instead: 6 scattered robots (1 pilot) grow a 2-row mesh around the
+        /// pilot and drive it 0.5 m (host/assembly/data/scenarios/grow_mesh.toml), in lockstep
+        /// with the simulator (deterministic, faster than real time).
         #[arg(long)]
         assembly: bool,
+        /// With --assembly: run over loopback UDP in real time instead (the controller's own
+        /// latency makes formation less reliable: see the README's Status).
+        #[arg(long, requires = "assembly")]
+        realtime: bool,
     },
     /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
     /// run an assembly scenario file against a simulated fleet.
@@ -200,23 +205,43 @@ fn main() -> ExitCode {
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
     let runs = cli.runs_dir;
-    match cli.command.unwrap_or(Cmd::Demo { assembly: false }) {
-        Cmd::Demo { assembly: true } => {
-            println!("puzzlebot demo --assembly: 6 simulated robots (2 pilots) over loopback form a 2-row mesh, move it 0.5 m, dissolve it and disperse");
+    match cli.command.unwrap_or(Cmd::Demo {
+        assembly: false,
+        realtime: false,
+    }) {
+        Cmd::Demo {
+            assembly: true,
+            realtime,
+        } => {
+            println!(
+                "puzzlebot demo --assembly: 6 simulated robots (1 pilot) scattered in 0.6 m x 0.6 m grow a 2-row mesh around the pilot, one robot at a time, and drive it 0.5 m ({})",
+                if realtime {
+                    "over loopback UDP in real time"
+                } else {
+                    "host controller in lockstep with the simulator"
+                }
+            );
             let t0 = std::time::Instant::now();
             let scenario = AsmScenario::from_toml_str(
-                std::path::Path::new("demo.toml"),
-                assemble::DEMO_SCENARIO,
+                std::path::Path::new("grow_mesh.toml"),
+                assemble::GROW_DEMO_SCENARIO,
                 &puzzlebot_params::FleetParams::default().non_pilot.geometry,
             )?;
-            let report = assemble::run_scenario(
-                scenario,
-                assemble::scattered_fleet(6, 2, 7),
-                &runs,
-                400.0,
-                None,
-            )
-            .await?;
+            let report = if realtime {
+                assemble::run_scenario(scenario, assemble::grow_demo_fleet(), &runs, 300.0, None)
+                    .await?
+            } else {
+                let runs = runs.clone();
+                tokio::task::spawn_blocking(move || {
+                    assemble::run_scenario_lockstep(
+                        scenario,
+                        assemble::grow_demo_fleet(),
+                        &runs,
+                        300.0,
+                    )
+                })
+                .await??
+            };
             print!("{}", assemble::describe(&report));
             assemble::ensure_finished(&report)?;
             println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
@@ -255,7 +280,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
             }
         }
-        Cmd::Demo { assembly: false } => {
+        Cmd::Demo {
+            assembly: false, ..
+        } => {
             println!("puzzlebot demo: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
             let t0 = std::time::Instant::now();
             let report = app::demo(&runs, true).await?;

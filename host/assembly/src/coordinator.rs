@@ -500,6 +500,24 @@ pub struct Coordinator {
     now: f64,
 }
 
+/// Ramp of a velocity behaviour's reference (s): it accelerates uniformly over this time, so
+/// every member of an assembly starts together (a step left the slowest behind, straining
+/// and popping anchors).
+pub const VELOCITY_RAMP_S: f64 = 2.0;
+
+/// Time along the unramped reference reached after `t` s of a reference that accelerates
+/// uniformly for [`VELOCITY_RAMP_S`].
+fn ramped(t: f64) -> f64 {
+    let r = VELOCITY_RAMP_S;
+    if t <= 0.0 {
+        0.0
+    } else if t < r {
+        t * t / (2.0 * r)
+    } else {
+        t - r / 2.0
+    }
+}
+
 /// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
 fn arc(start: &Pose2, v: f64, w: f64, t: f64) -> Pose2 {
     let t = t.max(0.0);
@@ -1855,6 +1873,54 @@ impl Coordinator {
         Some(via)
     }
 
+    /// For moving a segment from `leader`: the members knob-locked to the leader (its rigid
+    /// part), and for every other member the connected pair and neighbour that link it
+    /// towards the leader (breadth-first over connected pairs).
+    #[allow(clippy::type_complexity)]
+    fn links_towards(
+        &self,
+        members: &[RobotId],
+        leader: RobotId,
+    ) -> (BTreeSet<RobotId>, BTreeMap<RobotId, (usize, RobotId)>) {
+        let live: Vec<usize> = (0..self.pairs.len())
+            .filter(|i| {
+                let p = &self.pairs[*i];
+                p.status == PairStatus::Connected
+                    && !self.released.contains(i)
+                    && members.contains(&p.pair.a)
+                    && members.contains(&p.pair.b)
+            })
+            .collect();
+        let bfs = |knobs_only: bool| {
+            let mut via = BTreeMap::new();
+            let mut queue = std::collections::VecDeque::from([leader]);
+            let mut seen = BTreeSet::from([leader]);
+            while let Some(r) = queue.pop_front() {
+                for &i in &live {
+                    let p = &self.pairs[i].pair;
+                    if knobs_only && p.kind != PairType::KnobHole {
+                        continue;
+                    }
+                    let other = if p.a == r {
+                        p.b
+                    } else if p.b == r {
+                        p.a
+                    } else {
+                        continue;
+                    };
+                    if seen.insert(other) {
+                        via.insert(other, (i, r));
+                        queue.push_back(other);
+                    }
+                }
+            }
+            (seen, via)
+        };
+        let (rigid, _) = bfs(true);
+        let (_, via) = bfs(false);
+        (rigid, via)
+    }
+
     /// Members of each segment, by id.
     fn members(segments: &BTreeMap<RobotId, usize>) -> BTreeMap<usize, Vec<RobotId>> {
         let mut m: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
@@ -1916,19 +1982,33 @@ impl Coordinator {
                 role,
                 Role::Track { .. } | Role::GoTo { use_yaw: true, .. } | Role::Align { .. }
             );
-            let chain = if moving {
-                self.chain_towards(&members[&seg], leader)
+            // Moving: the leader's rigid part (knobs) moves as one body; a member hanging
+            // at an anchor keeps that connection (a train: it follows its neighbour's path
+            // within the anchor's play, and a bent row straightens behind it); a member
+            // knob-locked to such a member follows that one rigidly.
+            let (rigid, via) = if moving {
+                self.links_towards(&members[&seg], leader)
             } else {
-                None
+                (BTreeSet::new(), BTreeMap::new())
             };
             for &m in &members[&seg] {
                 if m == leader {
                     roles.insert(m, (role.clone(), Some(leader)));
                     continue;
                 }
-                if let Some(&i) = chain.as_ref().and_then(|c| c.get(&m)) {
-                    roles.insert(m, (self.align_role(i, m), Some(leader)));
-                    continue;
+                if moving && !rigid.contains(&m) {
+                    if let Some(&(i, next)) = via.get(&m) {
+                        let own = if self.pairs[i].pair.kind == PairType::AnchorOpening {
+                            self.align_role(i, m)
+                        } else {
+                            Role::Follow {
+                                leader: next,
+                                offset: self.follow_offset(m, next),
+                            }
+                        };
+                        roles.insert(m, (own, Some(leader)));
+                        continue;
+                    }
                 }
                 let offset = self
                     .motion_offsets
@@ -2082,7 +2162,9 @@ impl Coordinator {
                     let role = match self.motion_start.get(&leader) {
                         Some((start, t0)) => Role::Track {
                             reference: (0..=self.cfg.horizon_steps)
-                                .map(|k| arc(start, *v, *w, t - t0 + k as f64 * self.cfg.dt))
+                                .map(|k| {
+                                    arc(start, *v, *w, ramped(t - t0 + k as f64 * self.cfg.dt))
+                                })
                                 .collect(),
                         },
                         None => Role::Velocity { v: *v, w: *w },
