@@ -19,13 +19,6 @@ pub struct Field<'a> {
 }
 
 impl Field<'_> {
-    /// True when a robot centred at `p` keeps the clearance to every obstacle.
-    pub fn is_free(&self, p: [f64; 2]) -> bool {
-        self.obstacles
-            .iter()
-            .all(|o| (o[0] - p[0]).hypot(o[1] - p[1]) >= self.clearance)
-    }
-
     /// Distance to the nearest obstacle (∞ without obstacles).
     pub fn nearest(&self, p: [f64; 2]) -> f64 {
         self.obstacles

@@ -4,6 +4,9 @@
 //! distributed MPC. It records every status change with its time, and re-plans without a robot
 //! that is lost (THESIS Algorithm 2 on the remaining fleet).
 
+mod approach;
+mod order;
+
 use crate::assign::{
     assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
 };
@@ -149,36 +152,6 @@ impl Default for DockConfig {
         }
     }
 }
-
-/// Centre distance a robot driving to the start of an approach keeps from every other robot
-/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
-pub const ROUTE_CLEARANCE: f64 = 0.075;
-/// Smallest centre distance of the start of an approach to another robot (m): beside an
-/// assembly's side (50 mm bodies, 6 mm off), not closer.
-pub const APPROACH_GAP: f64 = 0.05;
-/// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
-/// the robot backs off to the stand-off and comes in again.
-const IN_PROGRESS: f64 = 0.003;
-/// See [`IN_PROGRESS`] (s).
-const IN_STALL_S: f64 = 3.0;
-/// Anchor approach: this far out from the final place (m) the robot must be on the axis
-/// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
-const IN_CHECK: f64 = 0.01;
-/// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
-const IN_LATERAL: f64 = 0.005;
-/// Largest heading error at [`IN_CHECK`] (rad).
-const IN_YAW: f64 = 0.2;
-/// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
-/// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
-const FLUSH_RUN_IN: f64 = 0.08;
-/// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
-/// knob's 1.5 mm seat gap.
-const FLUSH_OFFSET: f64 = 0.004;
-/// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
-/// the 25 mm to the next wrong hole.
-const FLUSH_CONVERGE: f64 = 0.02;
-/// How far around the robots a route may swing out (m).
-const ROUTE_MARGIN: f64 = 0.3;
 
 /// A docking robot relative to its final pose (see [`Role::Dock`]).
 struct DockFrame {
@@ -1191,606 +1164,17 @@ impl Coordinator {
         self.robots.get(&id).map_or(RobotKind::NonPilot, |k| k.kind)
     }
 
-    /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
-    /// segments so that each segment has one leader, 5.5.9).
-    fn choose_active(&self, segments: &BTreeMap<RobotId, usize>) -> Vec<usize> {
-        if let Some(seed) = self.grow {
-            return self.choose_grow(segments, seed);
-        }
-        let drivable: BTreeSet<usize> = segments
-            .iter()
-            .filter(|(id, _)| self.kind_of(**id) == RobotKind::NonPilot)
-            .map(|(_, &s)| s)
-            .collect();
-        let mut busy = BTreeSet::new();
-        let mut active = Vec::new();
-        // A pair starts only when it can be done now and the rest of the plan can still be
-        // done after it ([`Coordinator::startable`]): a side pair needs a lone non-pilot on
-        // one side (rows cannot move sideways, THESIS 5.2.2: the side join needs < 1 mm), an
-        // anchor pair a non-pilot on one side (THESIS 3.5.2).
-        let mut merged = segments.clone();
-        let decoupled: Vec<usize> = (0..self.pairs.len())
-            .filter(|&i| {
-                self.pairs[i].status == PairStatus::Decoupled && !self.released.contains(&i)
-            })
-            .collect();
-        let mut startable: BTreeSet<usize> = decoupled
-            .iter()
-            .copied()
-            .filter(|&i| self.startable(&merged, i, true))
-            .collect();
-        // No order completes the plan from here (e.g. both sides of every remaining side pair
-        // are already assemblies): rather than deadlock, start what can be done now.
-        let fallback = startable.is_empty();
-        if fallback {
-            startable = decoupled
-                .iter()
-                .copied()
-                .filter(|&i| self.startable(&merged, i, false))
-                .collect();
-        }
-        // Smallest distance bucket that still has unconnected pairs that may start.
-        let open_bucket = self
-            .pairs
-            .iter()
-            .enumerate()
-            .filter(|(i, p)| {
-                p.status != PairStatus::Connected
-                    && !self.released.contains(i)
-                    && (p.status != PairStatus::Decoupled || startable.contains(i))
-            })
-            .map(|(_, p)| crate::assign::distance_bucket(p.pair.centre_distance))
-            .min();
-        // Pairs in progress first, then the queue order (convex-first).
-        let mut order: Vec<usize> = (0..self.pairs.len()).collect();
-        order.sort_by_key(|&i| {
-            (
-                self.pairs[i].status == PairStatus::Decoupled,
-                self.pairs[i].pair.order,
-            )
-        });
-        for i in order {
-            let tp = &self.pairs[i];
-            if tp.status == PairStatus::Connected || self.released.contains(&i) {
-                continue;
-            }
-            if self.cfg.strict_convex_first
-                && tp.status == PairStatus::Decoupled
-                && Some(crate::assign::distance_bucket(tp.pair.centre_distance)) != open_bucket
-            {
-                continue;
-            }
-            let (Some(&sa), Some(&sb)) = (segments.get(&tp.pair.a), segments.get(&tp.pair.b))
-            else {
-                continue;
-            };
-            if busy.contains(&sa) || busy.contains(&sb) {
-                continue;
-            }
-            if !drivable.contains(&sa) && !drivable.contains(&sb) {
-                continue;
-            }
-            // Re-checked against the pairs chosen so far; a pair not startable at the start of
-            // the tick is not searched again.
-            if tp.status == PairStatus::Decoupled
-                && (!startable.contains(&i) || !self.startable(&merged, i, !fallback))
-            {
-                continue;
-            }
-            busy.insert(sa);
-            busy.insert(sb);
-            active.push(i);
-            // Later choices see this pair as done.
-            for seg in merged.values_mut() {
-                if *seg == sb {
-                    *seg = sa;
-                }
-            }
-        }
-        active
-    }
-
-    /// Growing around `seed`: the pair in progress, else the pair by which the nearest lone
-    /// non-pilot joins the seed's assembly (the rest of the plan still possible after it).
-    fn choose_grow(&self, segments: &BTreeMap<RobotId, usize>, seed: RobotId) -> Vec<usize> {
-        let Some(&home) = segments.get(&seed) else {
-            return Vec::new();
-        };
-        let open = |i: usize| !self.released.contains(&i);
-        let joins = |i: usize| {
-            let p = &self.pairs[i].pair;
-            let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
-            let lone = |id: RobotId, s: Option<&usize>| {
-                s.is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
-                    && self.kind_of(id) == RobotKind::NonPilot
-            };
-            if sa == Some(&home) && sb != Some(&home) && lone(p.b, sb) {
-                Some(p.b)
-            } else if sb == Some(&home) && sa != Some(&home) && lone(p.a, sa) {
-                Some(p.a)
-            } else {
-                None
-            }
-        };
-        if let Some(i) = (0..self.pairs.len()).find(|&i| {
-            open(i)
-                && matches!(
-                    self.pairs[i].status,
-                    PairStatus::HeadAligned | PairStatus::HeadInserted
-                )
-                && joins(i).is_some()
-        }) {
-            return vec![i];
-        }
-        (0..self.pairs.len())
-            .filter(|&i| open(i) && self.pairs[i].status == PairStatus::Decoupled)
-            .filter_map(|i| joins(i).map(|me| (i, me)))
-            .filter(|&(i, _)| self.startable(segments, i, true))
-            .min_by(|&(i, a), &(j, b)| {
-                // Convex-first (rows before the side joins, THESIS 5.2.2), then the nearest.
-                let bucket =
-                    |k: usize| crate::assign::distance_bucket(self.pairs[k].pair.centre_distance);
-                let d = |k: usize, me: RobotId| {
-                    self.dock_frame(k, me)
-                        .map_or(f64::INFINITY, |f| f.here[0].hypot(f.here[1]))
-                };
-                bucket(i).cmp(&bucket(j)).then(d(i, a).total_cmp(&d(j, b)))
-            })
-            .map(|(i, _)| vec![i])
-            .unwrap_or_default()
-    }
-
-    /// Can pair `i` be connected now, given robot → segment `merged`, and every other
-    /// unconnected pair after it, in some order? A merge of two segments needs a non-pilot
-    /// on one side (anchor pairs: that side moves, THESIS 3.5.2) or a lone non-pilot on one
-    /// side (side pairs: it docks, [`Role::Dock`]); a pair inside one segment closes a loop.
-    /// Depth-first over merge orders, memoised on the partition (plans are small); when the
-    /// search budget runs out the pair may start. `whole_plan` false: only "now".
-    fn startable(&self, merged: &BTreeMap<RobotId, usize>, i: usize, whole_plan: bool) -> bool {
-        let pending: Vec<usize> = (0..self.pairs.len())
-            .filter(|&k| {
-                k != i
-                    && self.pairs[k].status != PairStatus::Connected
-                    && !self.released.contains(&k)
-            })
-            .collect();
-        let mut groups: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
-        for (&id, &seg) in merged {
-            groups.entry(seg).or_default().push(id);
-        }
-        let partition: Vec<Vec<RobotId>> = groups.into_values().collect();
-        let Some(after) = self.merge_if_valid(&partition, i) else {
-            return false;
-        };
-        if !whole_plan {
-            return true;
-        }
-        let mut seen = BTreeSet::new();
-        // Bounded so a tick stays cheap on large or infeasible plans (each node clones a
-        // partition): at most a few milliseconds per pair.
-        let mut budget = 2_000usize;
-        self.completable(after, &pending, &mut seen, &mut budget)
-    }
-
-    /// The partition after connecting pair `k`, if that merge is allowed now.
-    fn merge_if_valid(&self, part: &[Vec<RobotId>], k: usize) -> Option<Vec<Vec<RobotId>>> {
-        let p = &self.pairs[k].pair;
-        let sa = part.iter().position(|g| g.contains(&p.a))?;
-        let sb = part.iter().position(|g| g.contains(&p.b))?;
-        if sa == sb {
-            return Some(part.to_vec());
-        }
-        let drivable = |g: &Vec<RobotId>| g.iter().any(|&r| self.kind_of(r) == RobotKind::NonPilot);
-        let lone = |g: &Vec<RobotId>| g.len() == 1 && drivable(g);
-        let ok = match p.kind {
-            PairType::AnchorOpening => drivable(&part[sa]) || drivable(&part[sb]),
-            PairType::KnobHole => lone(&part[sa]) || lone(&part[sb]),
-        };
-        if !ok {
-            return None;
-        }
-        let mut out: Vec<Vec<RobotId>> = part
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != sa && *j != sb)
-            .map(|(_, g)| g.clone())
-            .collect();
-        let mut joined = [part[sa].clone(), part[sb].clone()].concat();
-        joined.sort_unstable();
-        out.push(joined);
-        out.sort();
-        Some(out)
-    }
-
-    fn completable(
-        &self,
-        part: Vec<Vec<RobotId>>,
-        pending: &[usize],
-        seen: &mut BTreeSet<(Vec<Vec<RobotId>>, Vec<usize>)>,
-        budget: &mut usize,
-    ) -> bool {
-        if pending.is_empty() {
-            return true;
-        }
-        if *budget == 0 {
-            return true;
-        }
-        *budget -= 1;
-        if !seen.insert((part.clone(), pending.to_vec())) {
-            return false;
-        }
-        pending.iter().enumerate().any(|(n, &k)| {
-            self.merge_if_valid(&part, k).is_some_and(|next| {
-                let rest: Vec<usize> = [&pending[..n], &pending[n + 1..]].concat();
-                self.completable(next, &rest, seen, budget)
-            })
-        })
-    }
-
-    /// Where docking robot `me` of side pair `i` is (see [`DockFrame`]).
-    fn dock_frame(&self, i: usize, me: RobotId) -> Option<DockFrame> {
-        let p = &self.pairs.get(i)?.pair;
-        let g = &self.geometry;
-        let partner = if me == p.a { p.b } else { p.a };
-        let (km, kp) = (self.robots.get(&me)?, self.robots.get(&partner)?);
-        let (pa, pb) = (p.point_a.position(g), p.point_b.position(g));
-        let (own, other, own_point, yaw) = if me == p.a {
-            (pa, pb, p.point_a, kp.pose.yaw + p.relative_yaw)
-        } else {
-            (pb, pa, p.point_b, kp.pose.yaw - p.relative_yaw)
-        };
-        let target = kp.pose.transform(other);
-        let (s, c) = yaw.sin_cos();
-        let fin = Pose2::new(
-            target[0] - (c * own[0] - s * own[1]),
-            target[1] - (s * own[0] + c * own[1]),
-            yaw,
-        );
-        let (ny, nx) = own_point.normal().sin_cos();
-        let here = fin.inverse_transform(km.pose.xy());
-        let lat = -(here[0] * nx + here[1] * ny);
-        Some(DockFrame {
-            fin,
-            here,
-            normal: (nx, ny),
-            lat,
-        })
-    }
-
-    /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
-    /// puts the two connection points on each other; the approach line starts `run_in`
-    /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
-    fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
-        let DockFrame {
-            fin,
-            here,
-            normal: (nx, ny),
-            lat,
-        } = self.dock_frame(i, me)?;
-        let km = self.robots.get(&me)?;
-        let yaw = fin.yaw;
-        let d = self.cfg.dock;
-        // Approach from behind unless clearly ahead (a margin against flipping at the end).
-        let sigma = if here[0] <= d.run_in * 0.5 { 1.0 } else { -1.0 };
-        // The distance still to go along the final line.
-        let to_go = -sigma * here[0];
-        let yaw_rel = wrap_angle(km.pose.yaw - yaw);
-        let approach = to_go <= d.run_in + d.capture
-            && lat <= d.offset + d.capture
-            && lat >= -0.002
-            && yaw_rel.abs() <= 0.3;
-        if !approach {
-            // Drive to the start of the approach, `run_in` behind (ahead of) the final place
-            // and `offset` outside it (a point goal for the MPC: a unicycle cannot be parked
-            // sideways; the approach law takes over anywhere near it).
-            // The start of the approach from the nearer end, or from the other end when the
-            // nearer one is blocked by a robot; reached round the other robots.
-            let pre = |sg: f64| {
-                fin.compose(&Pose2::new(
-                    -sg * d.run_in - nx * d.offset,
-                    -ny * d.offset,
-                    0.0,
-                ))
-            };
-            let field_gap = |p: &Pose2| self.clear_distance(me, p.xy());
-            let mut goal = pre(sigma);
-            if field_gap(&goal) < APPROACH_GAP && field_gap(&pre(-sigma)) > field_gap(&goal) {
-                goal = pre(-sigma);
-            }
-            let dist = (goal.x - km.pose.x).hypot(goal.y - km.pose.y);
-            if dist > d.capture {
-                let Some(next) = self.route_step(me, goal.xy()) else {
-                    return Some(Role::Hold);
-                };
-                return Some(self.drive_to(i, &km.pose, next));
-            }
-            // There: turn on the spot to the approach heading.
-            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
-            return Some(Role::Dock { pair: i, v: 0.0, w });
-        }
-        // Converge on the partner's side with the heading proportional to the lateral
-        // distance: at k_lat · half a body length < 1 the front corner never reaches the
-        // side before the robot is flush, and the lateral distance decays over 1/k_lat of
-        // travel; the knob clicks in once within 1 mm along, 1.5 mm across and 0.04 rad.
-        // Never slower than the wheels' dead-band allows (fine steering needs both wheels
-        // turning): the robot drives through the place, and back after `overshoot`, until
-        // the knob clicks in.
-        let dir = {
-            let mut dirs = self.dock_dir.borrow_mut();
-            let state = dirs.entry(i).or_insert(Manoeuvre::Sweep(sigma));
-            let mut dir = match *state {
-                Manoeuvre::Sweep(dir) => dir,
-                _ => sigma,
-            };
-            if -dir * here[0] < -d.overshoot {
-                dir = -dir;
-            }
-            *state = Manoeuvre::Sweep(dir);
-            dir
-        };
-        let v = dir * d.speed;
-        // The turning sense that moves the robot towards the partner in this direction.
-        let toward = (dir * ny).signum();
-        let target = toward * (d.k_lat * (lat + d.press)).clamp(-d.max_heading, d.max_heading);
-        let w = -d.k_theta * wrap_angle(yaw_rel - target);
-        Some(Role::Dock { pair: i, v, w })
-    }
-
-    /// Anchor pair `i` between a waiting pilot and robot `me` (alone): stand off on the
-    /// pilot's axis (a point goal), turn on the spot to its heading, then drive straight in
-    /// along the axis, steering the lateral offset out (the line follower of
-    /// [`Coordinator::dock_role`]). An MPC pose goal next to a robot that cannot move away
-    /// pushes it, or turns the wrong end to it (the pilot's anchor in this robot's opening).
-    fn anchor_approach_role(&self, i: usize, me: RobotId) -> Option<Role> {
-        let DockFrame {
-            fin,
-            here,
-            normal: (nx, _),
-            ..
-        } = self.dock_frame(i, me)?;
-        let km = self.robots.get(&me)?;
-        let d = self.cfg.dock;
-        // Own connection point at the front (nx = 1: drive forward in) or back (reverse in).
-        let s = nx.signum();
-        // Distance out along the axis, lateral offset, heading error.
-        let out = -s * here[0];
-        let lat = here[1];
-        let yaw_rel = wrap_angle(km.pose.yaw - fin.yaw);
-        // None: getting to the stand-off (see [`Manoeuvre`]).
-        let mut phase = self.dock_dir.borrow_mut();
-        // In: the line follower steers out twice the stand-off's tolerance (turning on the
-        // spot drifts by about a centimetre).
-        let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
-        // The stand-off: on the axis, the nearest point from `standoff` out that is clear of
-        // every other robot (beside an assembly the axis may run between robots).
-        // When the axis runs between robots, the line follower gets `FLUSH_RUN_IN` more to
-        // converge before the robot slides in beside them (askew, it would push them).
-        let standoff = (0..=12)
-            .map(|k| d.standoff + 0.02 * k as f64)
-            .find(|&sd| {
-                let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
-                self.clear_distance(me, p.xy()) >= ROUTE_CLEARANCE
-            })
-            .map_or(d.standoff, |sd| {
-                if sd > d.standoff {
-                    sd + FLUSH_RUN_IN
-                } else {
-                    sd
-                }
-            });
-        let pre = fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
-        let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
-        match phase.get(&i).copied() {
-            None if dist > d.capture => {
-                // Round every other robot (the MPC's point goal goes straight and would push
-                // the partner), with a turn-then-drive point law (the MPC's point goal stalls
-                // when the point is beside the robot: a unicycle local minimum).
-                let Some(next) = self.route_step(me, pre.xy()) else {
-                    return Some(Role::Hold);
-                };
-                return Some(self.drive_to(i, &km.pose, next));
-            }
-            None => {
-                phase.insert(i, Manoeuvre::Turning);
-                return Some(Role::Hold);
-            }
-            Some(Manoeuvre::Turning) if dist > 2.5 * d.capture => {
-                phase.remove(&i);
-                return Some(Role::Hold);
-            }
-            Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
-                // Turn on the spot, never slower than the wheels' dead-band allows.
-                let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
-                return Some(Role::Dock { pair: i, v: 0.0, w });
-            }
-            Some(Manoeuvre::Turning) => {
-                phase.insert(
-                    i,
-                    Manoeuvre::In {
-                        dir: s,
-                        best: out,
-                        since: self.now,
-                    },
-                );
-            }
-            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_))
-                if !on_axis || yaw_rel.abs() > 0.35 =>
-            {
-                // Lost the axis: start over from the stand-off.
-                phase.remove(&i);
-                return Some(Role::Hold);
-            }
-            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_)) => {}
-        }
-        // Going in (dir = s), or backing off (dir = −s) when the robot is about to touch
-        // the partner still off the axis or askew (it would push it, not couple), until it
-        // is back at the stand-off.
-        let (mut dir, mut best, mut since) = match phase.get(&i) {
-            Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
-            _ => (s, out, self.now),
-        };
-        if out < best - IN_PROGRESS {
-            (best, since) = (out, self.now);
-        }
-        // Only towards a lone partner: beside an assembly the robot slides along its side,
-        // where a knob may click in on the way (it is right once the robot is in place),
-        // and backing off would drag the assembly.
-        let lone_partner = self.pairs.get(i).is_some_and(|tp| {
-            let partner = if tp.pair.a == me {
-                tp.pair.b
-            } else {
-                tp.pair.a
-            };
-            self.connected_pairs_of(partner).iter().all(|&k| k == i)
-        });
-        let askew =
-            lone_partner && out < IN_CHECK && (lat.abs() > IN_LATERAL || yaw_rel.abs() > IN_YAW);
-        // Stalled: pressing against the partner's edge instead of entering its opening.
-        let stalled = self.now - since > IN_STALL_S;
-        if dir == s && (askew || stalled) {
-            dir = -s;
-        } else if dir != s && out >= standoff {
-            (dir, best, since) = (s, out, self.now);
-        }
-        phase.insert(i, Manoeuvre::In { dir, best, since });
-        // Line follower along the axis: heading towards the axis in proportion to the
-        // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
-        // Beside other robots (the axis runs along an assembly's side) the robot keeps
-        // `FLUSH_OFFSET` away from them until the last `FLUSH_CONVERGE`: sliding flush, its
-        // knobs would click into their holes at the wrong place.
-        let partner = self.pairs.get(i).map(|tp| {
-            if tp.pair.a == me {
-                tp.pair.b
-            } else {
-                tp.pair.a
-            }
-        });
-        let beside: f64 = self
-            .robots
-            .iter()
-            .filter(|(id, _)| **id != me && Some(**id) != partner && !self.lost.contains(id))
-            .map(|(_, k)| fin.inverse_transform(k.pose.xy()))
-            .filter(|o| o[1].abs() < 0.08 && -s * o[0] > -0.05 && -s * o[0] < out + 0.05)
-            .map(|o| o[1].signum())
-            .sum();
-        let lat_goal = if out > FLUSH_CONVERGE {
-            -beside.signum() * FLUSH_OFFSET
-        } else {
-            0.0
-        };
-        let target = (-dir * d.k_lat * (lat - lat_goal)).clamp(-d.max_heading, d.max_heading);
-        let w = -d.k_theta * wrap_angle(yaw_rel - target);
-        Some(Role::Dock {
-            pair: i,
-            v: dir * d.speed,
-            w,
-        })
-    }
-
-    /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
-    /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
-    /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
-    fn point_drive(&self, pose: &Pose2, goal: [f64; 2]) -> (f64, f64) {
-        let d = self.cfg.dock;
-        let (dx, dy) = (goal[0] - pose.x, goal[1] - pose.y);
-        let mut e = wrap_angle(dy.atan2(dx) - pose.yaw);
-        let mut dir = 1.0;
-        if e.abs() > std::f64::consts::FRAC_PI_2 {
-            e = wrap_angle(e + std::f64::consts::PI);
-            dir = -1.0;
-        }
-        if e.abs() > 0.3 {
-            return (
-                0.0,
-                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
-            );
-        }
-        (dir * d.speed, d.k_theta * e)
-    }
-
-    /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
-    /// point law near it (the MPC's point goal stalls beside the robot).
-    fn drive_to(&self, i: usize, pose: &Pose2, p: [f64; 2]) -> Role {
-        if (p[0] - pose.x).hypot(p[1] - pose.y) > 0.15 {
-            return Role::GoTo {
-                goal: Pose2::new(p[0], p[1], pose.yaw),
-                use_yaw: false,
-            };
-        }
-        let (v, w) = self.point_drive(pose, p);
-        Role::Dock { pair: i, v, w }
-    }
-
-    /// Centres of every live robot but `me`.
-    fn others(&self, me: RobotId) -> Vec<[f64; 2]> {
-        self.robots
-            .iter()
-            .filter(|(id, _)| **id != me && !self.lost.contains(id))
-            .map(|(_, k)| k.pose.xy())
-            .collect()
-    }
-
-    /// Distance from `p` to the nearest robot other than `me` (m).
-    fn clear_distance(&self, me: RobotId, p: [f64; 2]) -> f64 {
-        let obstacles = self.others(me);
-        Field {
-            obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
-        }
-        .nearest(p)
-    }
-
-    /// The next waypoint of robot `me` on its way to `goal` round every other robot
-    /// ([`crate::route`]); None when there is no way (it waits).
-    fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
-        let start = self.robots.get(&me)?.pose.xy();
-        let obstacles = self.others(me);
-        let field = Field {
-            obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
-        };
-        route(start, goal, &field, APPROACH_GAP, ROUTE_MARGIN)?
-            .first()
-            .copied()
-    }
-
     /// Largest relative yaw over the connected anchor pairs inside `members` (rad).
     fn chain_bend(&self, members: &[RobotId]) -> f64 {
-        self.pairs
-            .iter()
-            .enumerate()
-            .filter(|(i, p)| {
-                p.status == PairStatus::Connected
-                    && !self.released.contains(i)
-                    && p.pair.kind == PairType::AnchorOpening
-                    && members.contains(&p.pair.a)
-                    && members.contains(&p.pair.b)
-            })
-            .filter_map(|(_, p)| {
+        self.live_pairs(members)
+            .into_iter()
+            .map(|i| &self.pairs[i])
+            .filter(|p| p.pair.kind == PairType::AnchorOpening)
+            .filter_map(|p| {
                 let (a, b) = (self.robots.get(&p.pair.a)?, self.robots.get(&p.pair.b)?);
                 Some(wrap_angle(a.pose.yaw - b.pose.yaw - p.pair.relative_yaw).abs())
             })
             .fold(0.0, f64::max)
-    }
-
-    /// For a side pair with a lone non-pilot on one side: that robot (it docks; the other
-    /// side holds still). The lone robot whose partner's assembly is larger goes first.
-    fn docking_robot(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> Option<RobotId> {
-        let tp = self.pairs.get(i)?;
-        if tp.pair.kind != PairType::KnobHole
-            || !matches!(tp.status, PairStatus::Decoupled | PairStatus::HeadAligned)
-        {
-            return None;
-        }
-        let size = |id: RobotId| {
-            let s = segments.get(&id);
-            segments.values().filter(|&x| Some(x) == s).count()
-        };
-        [(tp.pair.a, tp.pair.b), (tp.pair.b, tp.pair.a)]
-            .into_iter()
-            .filter(|&(me, _)| size(me) == 1 && self.kind_of(me) == RobotKind::NonPilot)
-            .max_by_key(|&(_, other)| size(other))
-            .map(|(me, _)| me)
     }
 
     fn align_role(&self, i: usize, me: RobotId) -> Role {
@@ -1828,15 +1212,9 @@ impl Coordinator {
         }
     }
 
-    /// For a segment held together by anchors only (a flexible chain, THESIS 5.2.2 "line"):
-    /// for every member but `leader`, the connected pair that links it towards the leader
-    /// (breadth-first from the leader). `None` when a knob pair makes the segment rigid.
-    fn chain_towards(
-        &self,
-        members: &[RobotId],
-        leader: RobotId,
-    ) -> Option<BTreeMap<RobotId, usize>> {
-        let live: Vec<usize> = (0..self.pairs.len())
+    /// Connected, unreleased pairs between two of `members`.
+    fn live_pairs(&self, members: &[RobotId]) -> Vec<usize> {
+        (0..self.pairs.len())
             .filter(|i| {
                 let p = &self.pairs[*i];
                 p.status == PairStatus::Connected
@@ -1844,33 +1222,7 @@ impl Coordinator {
                     && members.contains(&p.pair.a)
                     && members.contains(&p.pair.b)
             })
-            .collect();
-        if live
-            .iter()
-            .any(|&i| self.pairs[i].pair.kind != PairType::AnchorOpening)
-        {
-            return None;
-        }
-        let mut via = BTreeMap::new();
-        let mut queue = std::collections::VecDeque::from([leader]);
-        let mut seen = BTreeSet::from([leader]);
-        while let Some(r) = queue.pop_front() {
-            for &i in &live {
-                let p = &self.pairs[i].pair;
-                let other = if p.a == r {
-                    p.b
-                } else if p.b == r {
-                    p.a
-                } else {
-                    continue;
-                };
-                if seen.insert(other) {
-                    via.insert(other, i);
-                    queue.push_back(other);
-                }
-            }
-        }
-        Some(via)
+            .collect()
     }
 
     /// For moving a segment from `leader`: the members knob-locked to the leader (its rigid
@@ -1882,15 +1234,7 @@ impl Coordinator {
         members: &[RobotId],
         leader: RobotId,
     ) -> (BTreeSet<RobotId>, BTreeMap<RobotId, (usize, RobotId)>) {
-        let live: Vec<usize> = (0..self.pairs.len())
-            .filter(|i| {
-                let p = &self.pairs[*i];
-                p.status == PairStatus::Connected
-                    && !self.released.contains(i)
-                    && members.contains(&p.pair.a)
-                    && members.contains(&p.pair.b)
-            })
-            .collect();
+        let live = self.live_pairs(members);
         let bfs = |knobs_only: bool| {
             let mut via = BTreeMap::new();
             let mut queue = std::collections::VecDeque::from([leader]);
@@ -1940,8 +1284,12 @@ impl Coordinator {
             .copied()
             .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
             .unwrap_or(members[0]);
-        if self.chain_towards(members, first).is_some() {
-            // A chain of anchors moves as a train behind its head.
+        if self
+            .live_pairs(members)
+            .iter()
+            .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening)
+        {
+            // A chain of anchors (THESIS 5.2.2 "line") moves as a train behind its head.
             return first;
         }
         let poses: Vec<Pose2> = members
@@ -2603,13 +1951,20 @@ mod tests {
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
         assert_eq!(leaders.len(), 1, "one segment, one leader");
         // The velocity becomes a reference: the leader's pose integrated at 0.02 m/s from
-        // where it stood; the anchor chain behind it moves like a train, robot 2 keeping its
-        // connected pair with robot 1.
+        // where it stood, ramped up over `VELOCITY_RAMP_S`; the anchor chain behind it moves
+        // like a train, robot 2 keeping its connected pair with robot 1.
         let Role::Track { reference: r1 } = role_of(&tick, 1) else {
             panic!("{:?}", role_of(&tick, 1));
         };
         let l = goal.iter().find(|r| r.id == 1).unwrap().pose;
-        assert!((r1[1].x - (l.x + 0.02 * 0.1)).abs() < 1e-9, "{:?}", r1[1]);
+        let ramp = |t: f64| t * t / (2.0 * VELOCITY_RAMP_S);
+        assert!(
+            (r1[1].x - (l.x + 0.02 * ramp(0.1))).abs() < 1e-9,
+            "{:?}",
+            r1[1]
+        );
+        let last = r1.len() - 1;
+        assert!(r1[last].x > r1[1].x, "it accelerates: {r1:?}");
         assert!(
             matches!(
                 role_of(&tick, 2),

@@ -1,0 +1,388 @@
+//! How a lone robot gets to its place: the staged approaches (side docking, anchor approach to
+//! a partner that holds), the routes round other robots that bring it to their start, and the
+//! point law near waypoints.
+
+use super::*;
+
+/// Centre distance a robot driving to the start of an approach keeps from every other robot
+/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
+pub const ROUTE_CLEARANCE: f64 = 0.075;
+/// Smallest centre distance of the start of an approach to another robot (m): beside an
+/// assembly's side (50 mm bodies, 6 mm off), not closer.
+pub const APPROACH_GAP: f64 = 0.05;
+/// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
+/// the robot backs off to the stand-off and comes in again.
+pub(super) const IN_PROGRESS: f64 = 0.003;
+/// See [`IN_PROGRESS`] (s).
+pub(super) const IN_STALL_S: f64 = 3.0;
+/// Anchor approach: this far out from the final place (m) the robot must be on the axis
+/// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
+pub(super) const IN_CHECK: f64 = 0.01;
+/// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
+pub(super) const IN_LATERAL: f64 = 0.005;
+/// Largest heading error at [`IN_CHECK`] (rad).
+pub(super) const IN_YAW: f64 = 0.2;
+/// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
+/// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
+pub(super) const FLUSH_RUN_IN: f64 = 0.08;
+/// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
+/// knob's 1.5 mm seat gap.
+pub(super) const FLUSH_OFFSET: f64 = 0.004;
+/// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
+/// the 25 mm to the next wrong hole.
+pub(super) const FLUSH_CONVERGE: f64 = 0.02;
+/// How far around the robots a route may swing out (m).
+pub(super) const ROUTE_MARGIN: f64 = 0.3;
+
+impl Coordinator {
+    /// Where docking robot `me` of side pair `i` is (see [`DockFrame`]).
+    pub(super) fn dock_frame(&self, i: usize, me: RobotId) -> Option<DockFrame> {
+        let p = &self.pairs.get(i)?.pair;
+        let g = &self.geometry;
+        let partner = if me == p.a { p.b } else { p.a };
+        let (km, kp) = (self.robots.get(&me)?, self.robots.get(&partner)?);
+        let (pa, pb) = (p.point_a.position(g), p.point_b.position(g));
+        let (own, other, own_point, yaw) = if me == p.a {
+            (pa, pb, p.point_a, kp.pose.yaw + p.relative_yaw)
+        } else {
+            (pb, pa, p.point_b, kp.pose.yaw - p.relative_yaw)
+        };
+        let target = kp.pose.transform(other);
+        let (s, c) = yaw.sin_cos();
+        let fin = Pose2::new(
+            target[0] - (c * own[0] - s * own[1]),
+            target[1] - (s * own[0] + c * own[1]),
+            yaw,
+        );
+        let (ny, nx) = own_point.normal().sin_cos();
+        let here = fin.inverse_transform(km.pose.xy());
+        let lat = -(here[0] * nx + here[1] * ny);
+        Some(DockFrame {
+            fin,
+            here,
+            normal: (nx, ny),
+            lat,
+        })
+    }
+
+    /// The docking role of robot `me` for side pair `i` (see [`Role::Dock`]): its final pose
+    /// puts the two connection points on each other; the approach line starts `run_in`
+    /// behind (or ahead of, whichever is nearer) that pose and `offset` outside it.
+    pub(super) fn dock_role(&self, i: usize, me: RobotId) -> Option<Role> {
+        let DockFrame {
+            fin,
+            here,
+            normal: (nx, ny),
+            lat,
+        } = self.dock_frame(i, me)?;
+        let km = self.robots.get(&me)?;
+        let yaw = fin.yaw;
+        let d = self.cfg.dock;
+        // Approach from behind unless clearly ahead (a margin against flipping at the end).
+        let sigma = if here[0] <= d.run_in * 0.5 { 1.0 } else { -1.0 };
+        // The distance still to go along the final line.
+        let to_go = -sigma * here[0];
+        let yaw_rel = wrap_angle(km.pose.yaw - yaw);
+        let approach = to_go <= d.run_in + d.capture
+            && lat <= d.offset + d.capture
+            && lat >= -0.002
+            && yaw_rel.abs() <= 0.3;
+        if !approach {
+            // Drive to the start of the approach, `run_in` behind (ahead of) the final place
+            // and `offset` outside it (a point goal for the MPC: a unicycle cannot be parked
+            // sideways; the approach law takes over anywhere near it).
+            // The start of the approach from the nearer end, or from the other end when the
+            // nearer one is blocked by a robot; reached round the other robots.
+            let pre = |sg: f64| {
+                fin.compose(&Pose2::new(
+                    -sg * d.run_in - nx * d.offset,
+                    -ny * d.offset,
+                    0.0,
+                ))
+            };
+            let field_gap = |p: &Pose2| self.clear_distance(me, p.xy());
+            let mut goal = pre(sigma);
+            if field_gap(&goal) < APPROACH_GAP && field_gap(&pre(-sigma)) > field_gap(&goal) {
+                goal = pre(-sigma);
+            }
+            let dist = (goal.x - km.pose.x).hypot(goal.y - km.pose.y);
+            if dist > d.capture {
+                let Some(next) = self.route_step(me, goal.xy()) else {
+                    return Some(Role::Hold);
+                };
+                return Some(self.drive_to(i, &km.pose, next));
+            }
+            // There: turn on the spot to the approach heading.
+            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+            return Some(Role::Dock { pair: i, v: 0.0, w });
+        }
+        // Converge on the partner's side with the heading proportional to the lateral
+        // distance: at k_lat · half a body length < 1 the front corner never reaches the
+        // side before the robot is flush, and the lateral distance decays over 1/k_lat of
+        // travel; the knob clicks in once within 1 mm along, 1.5 mm across and 0.04 rad.
+        // Never slower than the wheels' dead-band allows (fine steering needs both wheels
+        // turning): the robot drives through the place, and back after `overshoot`, until
+        // the knob clicks in.
+        let dir = {
+            let mut dirs = self.dock_dir.borrow_mut();
+            let state = dirs.entry(i).or_insert(Manoeuvre::Sweep(sigma));
+            let mut dir = match *state {
+                Manoeuvre::Sweep(dir) => dir,
+                _ => sigma,
+            };
+            if -dir * here[0] < -d.overshoot {
+                dir = -dir;
+            }
+            *state = Manoeuvre::Sweep(dir);
+            dir
+        };
+        let v = dir * d.speed;
+        // The turning sense that moves the robot towards the partner in this direction.
+        let toward = (dir * ny).signum();
+        let target = toward * (d.k_lat * (lat + d.press)).clamp(-d.max_heading, d.max_heading);
+        let w = -d.k_theta * wrap_angle(yaw_rel - target);
+        Some(Role::Dock { pair: i, v, w })
+    }
+
+    /// Anchor pair `i` between a waiting pilot and robot `me` (alone): stand off on the
+    /// pilot's axis (a point goal), turn on the spot to its heading, then drive straight in
+    /// along the axis, steering the lateral offset out (the line follower of
+    /// [`Coordinator::dock_role`]). An MPC pose goal next to a robot that cannot move away
+    /// pushes it, or turns the wrong end to it (the pilot's anchor in this robot's opening).
+    pub(super) fn anchor_approach_role(&self, i: usize, me: RobotId) -> Option<Role> {
+        let DockFrame {
+            fin,
+            here,
+            normal: (nx, _),
+            ..
+        } = self.dock_frame(i, me)?;
+        let km = self.robots.get(&me)?;
+        let d = self.cfg.dock;
+        // Own connection point at the front (nx = 1: drive forward in) or back (reverse in).
+        let s = nx.signum();
+        // Distance out along the axis, lateral offset, heading error.
+        let out = -s * here[0];
+        let lat = here[1];
+        let yaw_rel = wrap_angle(km.pose.yaw - fin.yaw);
+        // None: getting to the stand-off (see [`Manoeuvre`]).
+        let mut phase = self.dock_dir.borrow_mut();
+        // In: the line follower steers out twice the stand-off's tolerance (turning on the
+        // spot drifts by about a centimetre).
+        let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
+        // The stand-off: on the axis, the nearest point from `standoff` out that is clear of
+        // every other robot (beside an assembly the axis may run between robots).
+        // When the axis runs between robots, the line follower gets `FLUSH_RUN_IN` more to
+        // converge before the robot slides in beside them (askew, it would push them).
+        let standoff = (0..=12)
+            .map(|k| d.standoff + 0.02 * k as f64)
+            .find(|&sd| {
+                let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
+                self.clear_distance(me, p.xy()) >= ROUTE_CLEARANCE
+            })
+            .map_or(d.standoff, |sd| {
+                if sd > d.standoff {
+                    sd + FLUSH_RUN_IN
+                } else {
+                    sd
+                }
+            });
+        let pre = fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
+        let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
+        match phase.get(&i).copied() {
+            None if dist > d.capture => {
+                // Round every other robot (the MPC's point goal goes straight and would push
+                // the partner), with a turn-then-drive point law (the MPC's point goal stalls
+                // when the point is beside the robot: a unicycle local minimum).
+                let Some(next) = self.route_step(me, pre.xy()) else {
+                    return Some(Role::Hold);
+                };
+                return Some(self.drive_to(i, &km.pose, next));
+            }
+            None => {
+                phase.insert(i, Manoeuvre::Turning);
+                return Some(Role::Hold);
+            }
+            Some(Manoeuvre::Turning) if dist > 2.5 * d.capture => {
+                phase.remove(&i);
+                return Some(Role::Hold);
+            }
+            Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
+                // Turn on the spot, never slower than the wheels' dead-band allows.
+                let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+                return Some(Role::Dock { pair: i, v: 0.0, w });
+            }
+            Some(Manoeuvre::Turning) => {
+                phase.insert(
+                    i,
+                    Manoeuvre::In {
+                        dir: s,
+                        best: out,
+                        since: self.now,
+                    },
+                );
+            }
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_))
+                if !on_axis || yaw_rel.abs() > 0.35 =>
+            {
+                // Lost the axis: start over from the stand-off.
+                phase.remove(&i);
+                return Some(Role::Hold);
+            }
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_)) => {}
+        }
+        // Going in (dir = s), or backing off (dir = −s) when the robot is about to touch
+        // the partner still off the axis or askew (it would push it, not couple), until it
+        // is back at the stand-off.
+        let (mut dir, mut best, mut since) = match phase.get(&i) {
+            Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
+            _ => (s, out, self.now),
+        };
+        if out < best - IN_PROGRESS {
+            (best, since) = (out, self.now);
+        }
+        // Only towards a lone partner: beside an assembly the robot slides along its side,
+        // where a knob may click in on the way (it is right once the robot is in place),
+        // and backing off would drag the assembly.
+        let lone_partner = self.pairs.get(i).is_some_and(|tp| {
+            let partner = if tp.pair.a == me {
+                tp.pair.b
+            } else {
+                tp.pair.a
+            };
+            self.connected_pairs_of(partner).iter().all(|&k| k == i)
+        });
+        let askew =
+            lone_partner && out < IN_CHECK && (lat.abs() > IN_LATERAL || yaw_rel.abs() > IN_YAW);
+        // Stalled: pressing against the partner's edge instead of entering its opening.
+        let stalled = self.now - since > IN_STALL_S;
+        if dir == s && (askew || stalled) {
+            dir = -s;
+        } else if dir != s && out >= standoff {
+            (dir, best, since) = (s, out, self.now);
+        }
+        phase.insert(i, Manoeuvre::In { dir, best, since });
+        // Line follower along the axis: heading towards the axis in proportion to the
+        // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
+        // Beside other robots (the axis runs along an assembly's side) the robot keeps
+        // `FLUSH_OFFSET` away from them until the last `FLUSH_CONVERGE`: sliding flush, its
+        // knobs would click into their holes at the wrong place.
+        let partner = self.pairs.get(i).map(|tp| {
+            if tp.pair.a == me {
+                tp.pair.b
+            } else {
+                tp.pair.a
+            }
+        });
+        let beside: f64 = self
+            .robots
+            .iter()
+            .filter(|(id, _)| **id != me && Some(**id) != partner && !self.lost.contains(id))
+            .map(|(_, k)| fin.inverse_transform(k.pose.xy()))
+            .filter(|o| o[1].abs() < 0.08 && -s * o[0] > -0.05 && -s * o[0] < out + 0.05)
+            .map(|o| o[1].signum())
+            .sum();
+        let lat_goal = if out > FLUSH_CONVERGE {
+            -beside.signum() * FLUSH_OFFSET
+        } else {
+            0.0
+        };
+        let target = (-dir * d.k_lat * (lat - lat_goal)).clamp(-d.max_heading, d.max_heading);
+        let w = -d.k_theta * wrap_angle(yaw_rel - target);
+        Some(Role::Dock {
+            pair: i,
+            v: dir * d.speed,
+            w,
+        })
+    }
+
+    /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
+    /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
+    /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
+    pub(super) fn point_drive(&self, pose: &Pose2, goal: [f64; 2]) -> (f64, f64) {
+        let d = self.cfg.dock;
+        let (dx, dy) = (goal[0] - pose.x, goal[1] - pose.y);
+        let mut e = wrap_angle(dy.atan2(dx) - pose.yaw);
+        let mut dir = 1.0;
+        if e.abs() > std::f64::consts::FRAC_PI_2 {
+            e = wrap_angle(e + std::f64::consts::PI);
+            dir = -1.0;
+        }
+        if e.abs() > 0.3 {
+            return (
+                0.0,
+                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
+            );
+        }
+        (dir * d.speed, d.k_theta * e)
+    }
+
+    /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
+    /// point law near it (the MPC's point goal stalls beside the robot).
+    pub(super) fn drive_to(&self, i: usize, pose: &Pose2, p: [f64; 2]) -> Role {
+        if (p[0] - pose.x).hypot(p[1] - pose.y) > 0.15 {
+            return Role::GoTo {
+                goal: Pose2::new(p[0], p[1], pose.yaw),
+                use_yaw: false,
+            };
+        }
+        let (v, w) = self.point_drive(pose, p);
+        Role::Dock { pair: i, v, w }
+    }
+
+    /// Centres of every live robot but `me`.
+    pub(super) fn others(&self, me: RobotId) -> Vec<[f64; 2]> {
+        self.robots
+            .iter()
+            .filter(|(id, _)| **id != me && !self.lost.contains(id))
+            .map(|(_, k)| k.pose.xy())
+            .collect()
+    }
+
+    /// Distance from `p` to the nearest robot other than `me` (m).
+    pub(super) fn clear_distance(&self, me: RobotId, p: [f64; 2]) -> f64 {
+        let obstacles = self.others(me);
+        Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        }
+        .nearest(p)
+    }
+
+    /// The next waypoint of robot `me` on its way to `goal` round every other robot
+    /// ([`crate::route`]); None when there is no way (it waits).
+    pub(super) fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        let start = self.robots.get(&me)?.pose.xy();
+        let obstacles = self.others(me);
+        let field = Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        };
+        route(start, goal, &field, APPROACH_GAP, ROUTE_MARGIN)?
+            .first()
+            .copied()
+    }
+
+    /// For a side pair with a lone non-pilot on one side: that robot (it docks; the other
+    /// side holds still). The lone robot whose partner's assembly is larger goes first.
+    pub(super) fn docking_robot(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Option<RobotId> {
+        let tp = self.pairs.get(i)?;
+        if tp.pair.kind != PairType::KnobHole
+            || !matches!(tp.status, PairStatus::Decoupled | PairStatus::HeadAligned)
+        {
+            return None;
+        }
+        let size = |id: RobotId| {
+            let s = segments.get(&id);
+            segments.values().filter(|&x| Some(x) == s).count()
+        };
+        [(tp.pair.a, tp.pair.b), (tp.pair.b, tp.pair.a)]
+            .into_iter()
+            .filter(|&(me, _)| size(me) == 1 && self.kind_of(me) == RobotKind::NonPilot)
+            .max_by_key(|&(_, other)| size(other))
+            .map(|(me, _)| me)
+    }
+}

@@ -1,0 +1,255 @@
+//! Which pairs may start now: the formation order (a pair starts only when the rest of the plan
+//! can still be done after it) and, when growing, the next robot to join.
+
+use super::*;
+
+impl Coordinator {
+    /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
+    /// segments so that each segment has one leader, 5.5.9).
+    pub(super) fn choose_active(&self, segments: &BTreeMap<RobotId, usize>) -> Vec<usize> {
+        if let Some(seed) = self.grow {
+            return self.choose_grow(segments, seed);
+        }
+        let drivable: BTreeSet<usize> = segments
+            .iter()
+            .filter(|(id, _)| self.kind_of(**id) == RobotKind::NonPilot)
+            .map(|(_, &s)| s)
+            .collect();
+        let mut busy = BTreeSet::new();
+        let mut active = Vec::new();
+        // A pair starts only when it can be done now and the rest of the plan can still be
+        // done after it ([`Coordinator::startable`]): a side pair needs a lone non-pilot on
+        // one side (rows cannot move sideways, THESIS 5.2.2: the side join needs < 1 mm), an
+        // anchor pair a non-pilot on one side (THESIS 3.5.2).
+        let mut merged = segments.clone();
+        let decoupled: Vec<usize> = (0..self.pairs.len())
+            .filter(|&i| {
+                self.pairs[i].status == PairStatus::Decoupled && !self.released.contains(&i)
+            })
+            .collect();
+        let mut startable: BTreeSet<usize> = decoupled
+            .iter()
+            .copied()
+            .filter(|&i| self.startable(&merged, i, true))
+            .collect();
+        // No order completes the plan from here (e.g. both sides of every remaining side pair
+        // are already assemblies): rather than deadlock, start what can be done now.
+        let fallback = startable.is_empty();
+        if fallback {
+            startable = decoupled
+                .iter()
+                .copied()
+                .filter(|&i| self.startable(&merged, i, false))
+                .collect();
+        }
+        // Smallest distance bucket that still has unconnected pairs that may start.
+        let open_bucket = self
+            .pairs
+            .iter()
+            .enumerate()
+            .filter(|(i, p)| {
+                p.status != PairStatus::Connected
+                    && !self.released.contains(i)
+                    && (p.status != PairStatus::Decoupled || startable.contains(i))
+            })
+            .map(|(_, p)| crate::assign::distance_bucket(p.pair.centre_distance))
+            .min();
+        // Pairs in progress first, then the queue order (convex-first).
+        let mut order: Vec<usize> = (0..self.pairs.len()).collect();
+        order.sort_by_key(|&i| {
+            (
+                self.pairs[i].status == PairStatus::Decoupled,
+                self.pairs[i].pair.order,
+            )
+        });
+        for i in order {
+            let tp = &self.pairs[i];
+            if tp.status == PairStatus::Connected || self.released.contains(&i) {
+                continue;
+            }
+            if self.cfg.strict_convex_first
+                && tp.status == PairStatus::Decoupled
+                && Some(crate::assign::distance_bucket(tp.pair.centre_distance)) != open_bucket
+            {
+                continue;
+            }
+            let (Some(&sa), Some(&sb)) = (segments.get(&tp.pair.a), segments.get(&tp.pair.b))
+            else {
+                continue;
+            };
+            if busy.contains(&sa) || busy.contains(&sb) {
+                continue;
+            }
+            if !drivable.contains(&sa) && !drivable.contains(&sb) {
+                continue;
+            }
+            // Re-checked against the pairs chosen so far; a pair not startable at the start of
+            // the tick is not searched again.
+            if tp.status == PairStatus::Decoupled
+                && (!startable.contains(&i) || !self.startable(&merged, i, !fallback))
+            {
+                continue;
+            }
+            busy.insert(sa);
+            busy.insert(sb);
+            active.push(i);
+            // Later choices see this pair as done.
+            for seg in merged.values_mut() {
+                if *seg == sb {
+                    *seg = sa;
+                }
+            }
+        }
+        active
+    }
+
+    /// Growing around `seed`: the pair in progress, else the pair by which the nearest lone
+    /// non-pilot joins the seed's assembly (the rest of the plan still possible after it).
+    pub(super) fn choose_grow(
+        &self,
+        segments: &BTreeMap<RobotId, usize>,
+        seed: RobotId,
+    ) -> Vec<usize> {
+        let Some(&home) = segments.get(&seed) else {
+            return Vec::new();
+        };
+        let open = |i: usize| !self.released.contains(&i);
+        let joins = |i: usize| {
+            let p = &self.pairs[i].pair;
+            let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
+            let lone = |id: RobotId, s: Option<&usize>| {
+                s.is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
+                    && self.kind_of(id) == RobotKind::NonPilot
+            };
+            if sa == Some(&home) && sb != Some(&home) && lone(p.b, sb) {
+                Some(p.b)
+            } else if sb == Some(&home) && sa != Some(&home) && lone(p.a, sa) {
+                Some(p.a)
+            } else {
+                None
+            }
+        };
+        if let Some(i) = (0..self.pairs.len()).find(|&i| {
+            open(i)
+                && matches!(
+                    self.pairs[i].status,
+                    PairStatus::HeadAligned | PairStatus::HeadInserted
+                )
+                && joins(i).is_some()
+        }) {
+            return vec![i];
+        }
+        (0..self.pairs.len())
+            .filter(|&i| open(i) && self.pairs[i].status == PairStatus::Decoupled)
+            .filter_map(|i| joins(i).map(|me| (i, me)))
+            .filter(|&(i, _)| self.startable(segments, i, true))
+            .min_by(|&(i, a), &(j, b)| {
+                // Convex-first (rows before the side joins, THESIS 5.2.2), then the nearest.
+                let bucket =
+                    |k: usize| crate::assign::distance_bucket(self.pairs[k].pair.centre_distance);
+                let d = |k: usize, me: RobotId| {
+                    self.dock_frame(k, me)
+                        .map_or(f64::INFINITY, |f| f.here[0].hypot(f.here[1]))
+                };
+                bucket(i).cmp(&bucket(j)).then(d(i, a).total_cmp(&d(j, b)))
+            })
+            .map(|(i, _)| vec![i])
+            .unwrap_or_default()
+    }
+
+    /// Can pair `i` be connected now, given robot → segment `merged`, and every other
+    /// unconnected pair after it, in some order? A merge of two segments needs a non-pilot
+    /// on one side (anchor pairs: that side moves, THESIS 3.5.2) or a lone non-pilot on one
+    /// side (side pairs: it docks, [`Role::Dock`]); a pair inside one segment closes a loop.
+    /// Depth-first over merge orders, memoised on the partition (plans are small); when the
+    /// search budget runs out the pair may start. `whole_plan` false: only "now".
+    pub(super) fn startable(
+        &self,
+        merged: &BTreeMap<RobotId, usize>,
+        i: usize,
+        whole_plan: bool,
+    ) -> bool {
+        let pending: Vec<usize> = (0..self.pairs.len())
+            .filter(|&k| {
+                k != i
+                    && self.pairs[k].status != PairStatus::Connected
+                    && !self.released.contains(&k)
+            })
+            .collect();
+        let mut groups: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        for (&id, &seg) in merged {
+            groups.entry(seg).or_default().push(id);
+        }
+        let partition: Vec<Vec<RobotId>> = groups.into_values().collect();
+        let Some(after) = self.merge_if_valid(&partition, i) else {
+            return false;
+        };
+        if !whole_plan {
+            return true;
+        }
+        let mut seen = BTreeSet::new();
+        // Bounded so a tick stays cheap on large or infeasible plans (each node clones a
+        // partition): at most a few milliseconds per pair.
+        let mut budget = 2_000usize;
+        self.completable(after, &pending, &mut seen, &mut budget)
+    }
+
+    /// The partition after connecting pair `k`, if that merge is allowed now.
+    pub(super) fn merge_if_valid(
+        &self,
+        part: &[Vec<RobotId>],
+        k: usize,
+    ) -> Option<Vec<Vec<RobotId>>> {
+        let p = &self.pairs[k].pair;
+        let sa = part.iter().position(|g| g.contains(&p.a))?;
+        let sb = part.iter().position(|g| g.contains(&p.b))?;
+        if sa == sb {
+            return Some(part.to_vec());
+        }
+        let drivable = |g: &Vec<RobotId>| g.iter().any(|&r| self.kind_of(r) == RobotKind::NonPilot);
+        let lone = |g: &Vec<RobotId>| g.len() == 1 && drivable(g);
+        let ok = match p.kind {
+            PairType::AnchorOpening => drivable(&part[sa]) || drivable(&part[sb]),
+            PairType::KnobHole => lone(&part[sa]) || lone(&part[sb]),
+        };
+        if !ok {
+            return None;
+        }
+        let mut out: Vec<Vec<RobotId>> = part
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != sa && *j != sb)
+            .map(|(_, g)| g.clone())
+            .collect();
+        let mut joined = [part[sa].clone(), part[sb].clone()].concat();
+        joined.sort_unstable();
+        out.push(joined);
+        out.sort();
+        Some(out)
+    }
+
+    pub(super) fn completable(
+        &self,
+        part: Vec<Vec<RobotId>>,
+        pending: &[usize],
+        seen: &mut BTreeSet<(Vec<Vec<RobotId>>, Vec<usize>)>,
+        budget: &mut usize,
+    ) -> bool {
+        if pending.is_empty() {
+            return true;
+        }
+        if *budget == 0 {
+            return true;
+        }
+        *budget -= 1;
+        if !seen.insert((part.clone(), pending.to_vec())) {
+            return false;
+        }
+        pending.iter().enumerate().any(|(n, &k)| {
+            self.merge_if_valid(&part, k).is_some_and(|next| {
+                let rest: Vec<usize> = [&pending[..n], &pending[n + 1..]].concat();
+                self.completable(next, &rest, seen, budget)
+            })
+        })
+    }
+}
