@@ -6,33 +6,33 @@ use super::*;
 
 /// Centre distance a robot driving to the start of an approach keeps from every other robot
 /// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
-pub const ROUTE_CLEARANCE: f64 = 0.075;
+const ROUTE_CLEARANCE: f64 = 0.075;
 /// Smallest centre distance of the start of an approach to another robot (m): beside an
 /// assembly's side (50 mm bodies, 6 mm off), not closer.
-pub const APPROACH_GAP: f64 = 0.05;
+const APPROACH_GAP: f64 = 0.05;
 /// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
 /// the robot backs off to the stand-off and comes in again.
-pub(super) const IN_PROGRESS: f64 = 0.003;
+const IN_PROGRESS: f64 = 0.003;
 /// See [`IN_PROGRESS`] (s).
-pub(super) const IN_STALL_S: f64 = 3.0;
+const IN_STALL_S: f64 = 3.0;
 /// Anchor approach: this far out from the final place (m) the robot must be on the axis
 /// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
-pub(super) const IN_CHECK: f64 = 0.01;
+const IN_CHECK: f64 = 0.01;
 /// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
-pub(super) const IN_LATERAL: f64 = 0.005;
+const IN_LATERAL: f64 = 0.005;
 /// Largest heading error at [`IN_CHECK`] (rad).
-pub(super) const IN_YAW: f64 = 0.2;
+const IN_YAW: f64 = 0.2;
 /// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
 /// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
-pub(super) const FLUSH_RUN_IN: f64 = 0.08;
+const FLUSH_RUN_IN: f64 = 0.08;
 /// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
 /// knob's 1.5 mm seat gap.
-pub(super) const FLUSH_OFFSET: f64 = 0.004;
+const FLUSH_OFFSET: f64 = 0.004;
 /// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
 /// the 25 mm to the next wrong hole.
-pub(super) const FLUSH_CONVERGE: f64 = 0.02;
+const FLUSH_CONVERGE: f64 = 0.02;
 /// How far around the robots a route may swing out (m).
-pub(super) const ROUTE_MARGIN: f64 = 0.3;
+const ROUTE_MARGIN: f64 = 0.3;
 
 impl Coordinator {
     /// Where docking robot `me` of side pair `i` is (see [`DockFrame`]).
