@@ -137,6 +137,19 @@ fn asm_events(c: &AssemblyController) -> Vec<String> {
         .collect()
 }
 
+/// Every pair of the controller's plan is coupled in the simulator's ground truth.
+fn assert_plan_coupled(ctl: &AssemblyController, o: &Outcome, label: &str) {
+    for tp in ctl.runner().coordinator().pairs() {
+        assert!(
+            o.truth.are_coupled(tp.pair.a, tp.pair.b),
+            "{label}: pair {}-{} ({:?}) coupled",
+            tp.pair.a,
+            tp.pair.b,
+            tp.pair.kind
+        );
+    }
+}
+
 fn finished(c: &AssemblyController) -> bool {
     matches!(c.state(), RunState::Finished)
 }
@@ -435,15 +448,7 @@ timeout_s = 50
             "seed {seed}: couplings {:?}",
             o.truth.coupled
         );
-        for tp in ctl.runner().coordinator().pairs() {
-            assert!(
-                o.truth.are_coupled(tp.pair.a, tp.pair.b),
-                "seed {seed}: pair {}-{} ({:?}) coupled",
-                tp.pair.a,
-                tp.pair.b,
-                tp.pair.kind
-            );
-        }
+        assert_plan_coupled(&ctl, &o, &format!("seed {seed}"));
         assert!(!came_apart(&o), "seed {seed}: a coupling came apart");
     }
 }
@@ -548,15 +553,7 @@ timeout_s = 240
         let o = run(&f, &mut ctl, asm_events, 250.0, |_, _| {});
         assert!(finished(&ctl), "seed {seed}: state {:?}", ctl.state());
         // Every planned pair is coupled in the ground truth, the rows joined by a knob.
-        for tp in ctl.runner().coordinator().pairs() {
-            assert!(
-                o.truth.are_coupled(tp.pair.a, tp.pair.b),
-                "seed {seed}: pair {}-{} ({:?}) coupled",
-                tp.pair.a,
-                tp.pair.b,
-                tp.pair.kind
-            );
-        }
+        assert_plan_coupled(&ctl, &o, &format!("seed {seed}"));
         let knobs = o
             .truth
             .coupled
@@ -590,15 +587,7 @@ fn the_assembly_demo_grows_a_mesh_and_drives_it_half_a_metre() {
     let pilot0 = f.robots[0].pose;
     let o = run(&f, &mut ctl, asm_events, 300.0, |_, _| {});
     assert!(finished(&ctl), "state {:?}", ctl.state());
-    for tp in ctl.runner().coordinator().pairs() {
-        assert!(
-            o.truth.are_coupled(tp.pair.a, tp.pair.b),
-            "pair {}-{} ({:?}) coupled at the end",
-            tp.pair.a,
-            tp.pair.b,
-            tp.pair.kind
-        );
-    }
+    assert_plan_coupled(&ctl, &o, "at the end");
     // Driven about 0.5 m along the pilot's heading, as one body.
     let p = o.truth.robot(1).expect("pilot").pose;
     let (s, c) = pilot0[2].sin_cos();

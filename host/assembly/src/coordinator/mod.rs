@@ -638,8 +638,19 @@ impl Coordinator {
         self.observe(t, robots);
         let states = self.states();
         let plan = assign_connection_pairs(&spec, &states, heading, &self.geometry)?;
+        Ok(self.start_form(t, plan, heading, None))
+    }
+
+    /// Install `plan` and switch to forming it.
+    fn start_form(
+        &mut self,
+        t: f64,
+        plan: Plan,
+        heading: Option<f64>,
+        grow: Option<RobotId>,
+    ) -> &Plan {
         self.heading = heading;
-        self.grow = None;
+        self.grow = grow;
         self.install(t, plan, false);
         self.mode = Mode::Form;
         self.push(
@@ -648,7 +659,7 @@ impl Coordinator {
                 name: "form".into(),
             },
         );
-        Ok(self.plan.as_ref().expect("just installed"))
+        self.plan.as_ref().expect("just installed")
     }
 
     /// Start forming `spec` grown around one robot (`seed`; default: the pilot, else the
@@ -684,17 +695,8 @@ impl Coordinator {
             })?,
         };
         let plan = assign_around(&spec, &states, seed, &self.geometry)?;
-        self.heading = Some(plan.heading);
-        self.grow = Some(seed);
-        self.install(t, plan, false);
-        self.mode = Mode::Form;
-        self.push(
-            t,
-            EventKind::BehaviourStarted {
-                name: "form".into(),
-            },
-        );
-        Ok(self.plan.as_ref().expect("just installed"))
+        let heading = Some(plan.heading);
+        Ok(self.start_form(t, plan, heading, Some(seed)))
     }
 
     /// The robot nearest the centre of `states`.
