@@ -134,15 +134,17 @@ pub fn route(
         },
         |&c| c == c1,
     )?;
-    // Shortcut: from each kept point, jump to the farthest path point still in clear view.
+    // Shortcut: from each kept point, go along the path while the straight line to the next
+    // point stays clear (linear in the path's length; searching back from the far end made a
+    // long winding path quadratic).
     let pts: Vec<[f64; 2]> = path.iter().map(|&c| at(c)).collect();
     let mut out = Vec::new();
     let mut from = start;
     let mut k = 0;
     while k + 1 < pts.len() {
-        let mut j = pts.len() - 1;
-        while j > k + 1 && !field.segment_free(from, pts[j], &ends) {
-            j -= 1;
+        let mut j = k + 1;
+        while j + 1 < pts.len() && field.segment_free(from, pts[j + 1], &ends) {
+            j += 1;
         }
         from = pts[j];
         out.push(from);

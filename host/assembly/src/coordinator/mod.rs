@@ -153,6 +153,10 @@ impl Default for DockConfig {
     }
 }
 
+/// Growing: how far an assembly may drive ahead to straighten before a robot docks at its side
+/// (m, per pair).
+const GROW_STRAIGHTEN: f64 = 0.1;
+
 /// A docking robot relative to its final pose (see [`Role::Dock`]).
 struct DockFrame {
     /// Final pose: the two connection points on each other.
@@ -469,6 +473,9 @@ pub struct Coordinator {
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
     /// Growing the shape around this robot ([`Coordinator::form_grown`]).
     grow: Option<RobotId>,
+    /// Growing: where the partner of a side pair stood when its assembly first drove ahead to
+    /// straighten, per pair.
+    straighten_from: std::cell::RefCell<BTreeMap<usize, [f64; 2]>>,
     /// Time of the current tick (s).
     now: f64,
 }
@@ -524,6 +531,7 @@ impl Coordinator {
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
             unplanned: BTreeMap::new(),
             grow: None,
+            straighten_from: Default::default(),
             now: 0.0,
         }
     }
@@ -722,6 +730,7 @@ impl Coordinator {
             .collect();
         // Docking directions are per pair index: a new plan starts afresh.
         self.dock_dir.get_mut().clear();
+        self.straighten_from.get_mut().clear();
         self.pairs = plan
             .pairs
             .iter()
@@ -1406,26 +1415,43 @@ impl Coordinator {
                         let near = self
                             .dock_frame(i, me)
                             .is_none_or(|f| f.lat < self.cfg.dock.clearance);
-                        // Not while growing: the assembly holds still (a pilot in it may keep
-                        // it bent, and it would drive on and on).
+                        // Growing, for at most `GROW_STRAIGHTEN` per pair (a pilot in the
+                        // assembly may keep it bent, and it would drive on and on).
+                        let straighten_left = self.grow.is_none()
+                            || self.robots.get(&other).is_some_and(|k| {
+                                let mut from = self.straighten_from.borrow_mut();
+                                let o = *from.entry(i).or_insert(k.pose.xy());
+                                (k.pose.x - o[0]).hypot(k.pose.y - o[1]) < GROW_STRAIGHTEN
+                            });
                         if !near
-                            && self.grow.is_none()
+                            && straighten_left
                             && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend
                         {
                             // A bent chain's corners block the approach lane: the assembly
-                            // first drives straight ahead (a train straightens behind its
-                            // head); the docking robot waits.
-                            if let Some(k) = self.robots.get(&other) {
+                            // first drives straight ahead, led by its front robot (a train
+                            // straightens behind its head; pushed from behind it jackknifes);
+                            // the docking robot waits.
+                            let head = self.robots.get(&other).map(|k| k.pose).and_then(|po| {
+                                let (s, c) = po.yaw.sin_cos();
+                                members[&seg]
+                                    .iter()
+                                    .filter_map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
+                                    .max_by(|a, b| {
+                                        let f = |p: &Pose2| p.x * c + p.y * s;
+                                        f(&a.1).total_cmp(&f(&b.1))
+                                    })
+                            });
+                            if let Some((lead, k)) = head {
                                 let ahead = (0..=self.cfg.horizon_steps)
                                     .map(|j| {
                                         let x = 0.01 + j as f64 * self.cfg.dock.speed * self.cfg.dt;
-                                        k.pose.compose(&Pose2::new(x, 0.0, 0.0))
+                                        k.compose(&Pose2::new(x, 0.0, 0.0))
                                     })
                                     .collect();
                                 lead_segment(
                                     &mut roles,
                                     seg,
-                                    other,
+                                    lead,
                                     Role::Track { reference: ahead },
                                 );
                             }
