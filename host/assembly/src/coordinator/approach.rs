@@ -100,7 +100,12 @@ impl Coordinator {
                     0.0,
                 ))
             };
-            let field_gap = |p: &Pose2| self.clear_distance(me, p.xy());
+            let others = self.others(me);
+            let field = Field {
+                obstacles: &others,
+                clearance: ROUTE_CLEARANCE,
+            };
+            let field_gap = |p: &Pose2| field.nearest(p.xy());
             let mut goal = pre(sigma);
             if field_gap(&goal) < APPROACH_GAP && field_gap(&pre(-sigma)) > field_gap(&goal) {
                 goal = pre(-sigma);
@@ -173,11 +178,16 @@ impl Coordinator {
         // every other robot (beside an assembly the axis may run between robots).
         // When the axis runs between robots, the line follower gets `FLUSH_RUN_IN` more to
         // converge before the robot slides in beside them (askew, it would push them).
+        let others = self.others(me);
+        let field = Field {
+            obstacles: &others,
+            clearance: ROUTE_CLEARANCE,
+        };
         let standoff = (0..=12)
             .map(|k| d.standoff + 0.02 * k as f64)
             .find(|&sd| {
                 let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
-                self.clear_distance(me, p.xy()) >= ROUTE_CLEARANCE
+                field.nearest(p.xy()) >= ROUTE_CLEARANCE
             })
             .map_or(d.standoff, |sd| {
                 if sd > d.standoff {
@@ -336,16 +346,6 @@ impl Coordinator {
             .filter(|(id, _)| **id != me && !self.lost.contains(id))
             .map(|(_, k)| k.pose.xy())
             .collect()
-    }
-
-    /// Distance from `p` to the nearest robot other than `me` (m).
-    pub(super) fn clear_distance(&self, me: RobotId, p: [f64; 2]) -> f64 {
-        let obstacles = self.others(me);
-        Field {
-            obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
-        }
-        .nearest(p)
     }
 
     /// The next waypoint of robot `me` on its way to `goal` round every other robot
