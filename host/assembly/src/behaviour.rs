@@ -69,6 +69,59 @@ impl Wiggle {
     }
 }
 
+/// Fraction of the anchor's yaw range a closed-loop wiggle turns to before it turns back.
+pub const WIGGLE_REACH: f64 = 0.9;
+
+/// Turning sense of a closed-loop wiggle: the square wave of THESIS (5.7) with its edges set by
+/// the measured relative yaw φ of the pair instead of the clock. Open loop, a stroke's swing
+/// depends on how far the partner is dragged and on when the commands arrive: over loopback
+/// under load φ swung between +0.18 and +0.50 rad for 25 s, never far enough back to pop the
+/// second leg. Closed loop, every stroke goes from one side of the yaw range to the other.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WiggleTurn {
+    sign: f64,
+    since: f64,
+}
+
+impl WiggleTurn {
+    /// A wiggle starting at time `t` (s), turning counter-clockwise first.
+    pub fn new(t: f64) -> Self {
+        WiggleTurn {
+            sign: 1.0,
+            since: t,
+        }
+    }
+
+    /// Turn the other way once φ (wiggling robot's yaw minus its partner's, rad) reached
+    /// `reach` on the side being turned to, or after `patience` s without reaching it (a
+    /// robot that cannot turn further does not push for ever). Non-finite φ changes nothing.
+    pub fn update(&mut self, t: f64, phi: f64, reach: f64, patience: f64) {
+        let reached = phi.is_finite() && self.sign * phi >= reach;
+        if reached || t - self.since >= patience {
+            self.sign = -self.sign;
+            self.since = t;
+        }
+    }
+
+    /// +1 turning counter-clockwise, −1 clockwise.
+    pub fn sign(&self) -> f64 {
+        self.sign
+    }
+}
+
+impl Wiggle {
+    /// (v, ω) of the wiggle at `t` s since it started: the square wave follows `turn` (closed
+    /// loop, [`WiggleTurn`]; a stroke lasts at most `period_s`), the sinusoid of THESIS (4.2)
+    /// stays open loop.
+    pub fn command_closed(&self, t: f64, turn: &WiggleTurn) -> (f64, f64) {
+        if self.square {
+            (self.v_bias, self.w_max * turn.sign())
+        } else {
+            self.command(t)
+        }
+    }
+}
+
 /// Rendezvous velocities (THESIS (2.3)): u_i = gain · (1/N) Σ_{j≠i} (x_j − x_i), in the plane.
 /// With `anti`, the anti-rendezvous of THESIS (2.4) (the negative).
 pub fn rendezvous(positions: &[[f64; 2]], gain: f64, anti: bool) -> Vec<[f64; 2]> {
@@ -163,6 +216,35 @@ mod tests {
         let sine = Wiggle { square: false, ..w };
         assert!((sine.command(0.25).1 - 2.0).abs() < 1e-9);
         assert!(sine.command(0.125).1 < 2.0);
+    }
+
+    #[test]
+    fn a_closed_loop_wiggle_turns_back_at_the_measured_yaw_or_after_its_patience() {
+        let w = Wiggle::default();
+        let mut turn = WiggleTurn::new(0.0);
+        assert_eq!(w.command_closed(0.0, &turn), (w.v_bias, w.w_max));
+        // Short of the reach: keeps turning; reached: turns back.
+        turn.update(0.1, 0.40, 0.45, 1.0);
+        assert_eq!(turn.sign(), 1.0);
+        turn.update(0.2, 0.46, 0.45, 1.0);
+        assert_eq!(turn.sign(), -1.0);
+        assert_eq!(w.command_closed(0.2, &turn), (w.v_bias, -w.w_max));
+        // On the far side of the turn the old reach does not count, the other one does.
+        turn.update(0.3, 0.46, 0.45, 1.0);
+        assert_eq!(turn.sign(), -1.0);
+        turn.update(0.4, -0.45, 0.45, 1.0);
+        assert_eq!(turn.sign(), 1.0);
+        // A blocked robot (or no pose) turns back after its patience only.
+        turn.update(1.3, f64::NAN, 0.45, 1.0);
+        assert_eq!(turn.sign(), 1.0);
+        turn.update(1.5, f64::NAN, 0.45, 1.0);
+        assert_eq!(turn.sign(), -1.0);
+        // The sinusoid of (4.2) stays open loop.
+        let sine = Wiggle {
+            square: false,
+            ..Wiggle::default()
+        };
+        assert_eq!(sine.command_closed(0.3, &turn), sine.command(0.3));
     }
 
     #[test]

@@ -10,7 +10,7 @@ mod order;
 use crate::assign::{
     assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
 };
-use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle};
+use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle, WiggleTurn, WIGGLE_REACH};
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
 use crate::pair::{is_inserted, measure, PairStatus, PairTolerances, TrackedPair};
 use crate::route::{route, Field};
@@ -478,6 +478,23 @@ pub struct Coordinator {
     straighten_from: std::cell::RefCell<BTreeMap<usize, [f64; 2]>>,
     /// Time of the current tick (s).
     now: f64,
+    /// Closed-loop wiggles: the turning sense of every wiggling robot.
+    wiggle_turns: BTreeMap<RobotId, WiggleTurn>,
+}
+
+/// A robot wiggling a pair apart.
+#[derive(Debug, Clone, Copy)]
+struct Wiggler {
+    robot: RobotId,
+    partner: RobotId,
+    /// +1: pulls forward (the anchor robot); −1: backs off (the opening robot of a pilot's
+    /// anchor).
+    v_sign: f64,
+    /// False for a knob pair: its robot only pulls.
+    turns: bool,
+    wiggle: Wiggle,
+    /// When the wiggle started (s).
+    start: f64,
 }
 
 /// Ramp of a velocity behaviour's reference (s): it accelerates uniformly over this time, so
@@ -533,6 +550,7 @@ impl Coordinator {
             grow: None,
             straighten_from: Default::default(),
             now: 0.0,
+            wiggle_turns: BTreeMap::new(),
         }
     }
 
@@ -955,6 +973,7 @@ impl Coordinator {
                 self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
             }
         }
+        self.update_wiggles(t);
         let complete = self.is_complete();
         if complete && !self.complete_reported && self.mode == Mode::Form {
             self.complete_reported = true;
@@ -1006,6 +1025,84 @@ impl Coordinator {
             complete,
             events: std::mem::take(&mut self.pending),
         }
+    }
+
+    /// Robots that wiggle now: the anchor robots of a decouple behaviour's pairs, and one
+    /// robot of every unplanned coupling (the anchor robot, or the opening robot backing off
+    /// when the anchor is a pilot's).
+    fn wigglers(&self) -> Vec<Wiggler> {
+        let mut out = Vec::new();
+        if let Mode::Decouple {
+            pairs,
+            wiggle,
+            start,
+        } = &self.mode
+        {
+            for &i in pairs {
+                if self.released.contains(&i) {
+                    continue;
+                }
+                if let Some(tp) = self.pairs.get(i) {
+                    out.push(Wiggler {
+                        robot: tp.pair.a,
+                        partner: tp.pair.b,
+                        v_sign: 1.0,
+                        turns: tp.pair.kind != PairType::KnobHole,
+                        wiggle: *wiggle,
+                        start: *start,
+                    });
+                }
+            }
+        }
+        if self.mode == Mode::Form {
+            for (&(anchor, opening), &t0) in &self.unplanned {
+                let (robot, partner, v_sign) = if self.kind_of(anchor) == RobotKind::NonPilot {
+                    (anchor, opening, 1.0)
+                } else {
+                    (opening, anchor, -1.0)
+                };
+                out.push(Wiggler {
+                    robot,
+                    partner,
+                    v_sign,
+                    turns: true,
+                    wiggle: Wiggle::default(),
+                    start: t0,
+                });
+            }
+        }
+        out
+    }
+
+    /// Closed-loop wiggles ([`WiggleTurn`]): each wiggling robot turns back once its yaw
+    /// relative to its partner reached [`WIGGLE_REACH`] of the anchor's yaw range.
+    fn update_wiggles(&mut self, t: f64) {
+        let reach = WIGGLE_REACH * f64::from(self.cfg.tolerances.coupling.anchor_yaw_range);
+        let now = self.wigglers();
+        self.wiggle_turns
+            .retain(|id, _| now.iter().any(|w| w.robot == *id));
+        for w in now {
+            let yaw = |id| self.robots.get(&id).map(|k| k.pose.yaw);
+            let phi = match (yaw(w.robot), yaw(w.partner)) {
+                (Some(a), Some(b)) => wrap_angle(a - b),
+                _ => f64::NAN,
+            };
+            self.wiggle_turns
+                .entry(w.robot)
+                .or_insert_with(|| WiggleTurn::new(t))
+                .update(t, phi, reach, w.wiggle.period_s);
+        }
+    }
+
+    /// (v, ω) of a wiggling robot at time `t`.
+    fn wiggle_command(&self, w: &Wiggler, t: f64) -> (f64, f64) {
+        let turn = self
+            .wiggle_turns
+            .get(&w.robot)
+            .copied()
+            .unwrap_or_else(|| WiggleTurn::new(t));
+        let (v, om) = w.wiggle.command_closed(t - w.start, &turn);
+        (w.v_sign * v, if w.turns { om } else { 0.0 })
     }
 
     /// Anchor couplings between robots that no tracked pair covers, from the measured poses
@@ -1506,17 +1603,12 @@ impl Coordinator {
                 }
                 // Unplanned couplings come apart first: the anchor robot wiggles forward
                 // (THESIS 5.7), or the opening robot backwards when the anchor is a pilot's.
-                for (&(anchor, opening), &t0) in &self.unplanned {
-                    let (v, w) = Wiggle::default().command(t - t0);
-                    let (me, other, v) = if self.kind_of(anchor) == RobotKind::NonPilot {
-                        (anchor, opening, v)
-                    } else {
-                        (opening, anchor, -v)
-                    };
-                    roles.insert(me, (Role::Velocity { v, w }, Some(me)));
-                    let held = segments.get(&other).and_then(|s| members.get(s));
+                for w in self.wigglers() {
+                    let (v, om) = self.wiggle_command(&w, t);
+                    roles.insert(w.robot, (Role::Velocity { v, w: om }, Some(w.robot)));
+                    let held = segments.get(&w.partner).and_then(|s| members.get(s));
                     for &m in held.into_iter().flatten() {
-                        if m != me {
+                        if m != w.robot {
                             roles.insert(m, (Role::Hold, None));
                         }
                     }
@@ -1595,27 +1687,12 @@ impl Coordinator {
                     roles.insert(*id, (Role::Velocity { v, w }, Some(*id)));
                 }
             }
-            Mode::Decouple {
-                pairs,
-                wiggle,
-                start,
-            } => {
-                for &i in pairs {
-                    if self.released.contains(&i) {
-                        continue;
-                    }
-                    let Some(tp) = self.pairs.get(i) else {
-                        continue;
-                    };
-                    let (v, w) = wiggle.command(t - start);
-                    // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds.
-                    let w = if tp.pair.kind == PairType::KnobHole {
-                        0.0
-                    } else {
-                        w
-                    };
-                    roles.insert(tp.pair.a, (Role::Velocity { v, w }, Some(tp.pair.a)));
-                    roles.entry(tp.pair.b).or_insert((Role::Hold, None));
+            Mode::Decouple { .. } => {
+                // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds.
+                for w in self.wigglers() {
+                    let (v, om) = self.wiggle_command(&w, t);
+                    roles.insert(w.robot, (Role::Velocity { v, w: om }, Some(w.robot)));
+                    roles.entry(w.partner).or_insert((Role::Hold, None));
                 }
             }
             Mode::Disperse { goals } => {
