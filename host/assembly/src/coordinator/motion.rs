@@ -1,0 +1,161 @@
+//! Moving an assembly: the velocity reference, the segment's leader, and how every member
+//! follows it (rigid part, trains hanging at anchors).
+
+use super::*;
+
+/// Ramp of a velocity behaviour's reference (s): it accelerates uniformly over this time, so
+/// every member of an assembly starts together (a step left the slowest behind, straining
+/// and popping anchors).
+pub const VELOCITY_RAMP_S: f64 = 2.0;
+
+/// Time along the unramped reference reached after `t` s of a reference that accelerates
+/// uniformly for [`VELOCITY_RAMP_S`].
+pub(super) fn ramped(t: f64) -> f64 {
+    let r = VELOCITY_RAMP_S;
+    if t <= 0.0 {
+        0.0
+    } else if t < r {
+        t * t / (2.0 * r)
+    } else {
+        t - r / 2.0
+    }
+}
+
+/// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
+pub(super) fn arc(start: &Pose2, v: f64, w: f64, t: f64) -> Pose2 {
+    let t = t.max(0.0);
+    let (dx, dy) = if w.abs() < 1e-9 {
+        (v * t, 0.0)
+    } else {
+        let r = v / w;
+        (r * (w * t).sin(), r * (1.0 - (w * t).cos()))
+    };
+    start.compose(&Pose2::new(dx, dy, w * t))
+}
+
+impl Coordinator {
+    /// Connected, unreleased pairs between two of `members`.
+    pub(super) fn live_pairs(&self, members: &[RobotId]) -> Vec<usize> {
+        (0..self.pairs.len())
+            .filter(|i| {
+                let p = &self.pairs[*i];
+                p.status == PairStatus::Connected
+                    && !self.released.contains(i)
+                    && members.contains(&p.pair.a)
+                    && members.contains(&p.pair.b)
+            })
+            .collect()
+    }
+
+    /// For moving a segment from `leader`: the members knob-locked to the leader (its rigid
+    /// part), and for every other member the connected pair and neighbour that link it
+    /// towards the leader (breadth-first over connected pairs).
+    #[allow(clippy::type_complexity)]
+    pub(super) fn links_towards(
+        &self,
+        members: &[RobotId],
+        leader: RobotId,
+    ) -> (BTreeSet<RobotId>, BTreeMap<RobotId, (usize, RobotId)>) {
+        let live = self.live_pairs(members);
+        let bfs = |knobs_only: bool| {
+            let mut via = BTreeMap::new();
+            let mut queue = std::collections::VecDeque::from([leader]);
+            let mut seen = BTreeSet::from([leader]);
+            while let Some(r) = queue.pop_front() {
+                for &i in &live {
+                    let p = &self.pairs[i].pair;
+                    if knobs_only && p.kind != PairType::KnobHole {
+                        continue;
+                    }
+                    let other = if p.a == r {
+                        p.b
+                    } else if p.b == r {
+                        p.a
+                    } else {
+                        continue;
+                    };
+                    if seen.insert(other) {
+                        via.insert(other, (i, r));
+                        queue.push_back(other);
+                    }
+                }
+            }
+            (seen, via)
+        };
+        let (rigid, _) = bfs(true);
+        let (_, via) = bfs(false);
+        (rigid, via)
+    }
+
+    /// Members of each segment, by id.
+    pub(super) fn members(segments: &BTreeMap<RobotId, usize>) -> BTreeMap<usize, Vec<RobotId>> {
+        let mut m: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        for (&id, &s) in segments {
+            m.entry(s).or_default().push(id);
+        }
+        m
+    }
+
+    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the lowest-id
+    /// non-pilot; of a rigid assembly the non-pilot heading closest to the members' mean
+    /// heading (a robot hanging askew at an anchor would lead the rigid rest sideways);
+    /// without non-pilots the lowest id.
+    pub(super) fn motion_leader(&self, members: &[RobotId]) -> RobotId {
+        let first = members
+            .iter()
+            .copied()
+            .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .unwrap_or(members[0]);
+        if self
+            .live_pairs(members)
+            .iter()
+            .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening)
+        {
+            // A chain of anchors (THESIS 5.2.2 "line") moves as a train behind its head.
+            return first;
+        }
+        let poses: Vec<Pose2> = members
+            .iter()
+            .filter_map(|id| self.robots.get(id).map(|k| k.pose))
+            .collect();
+        let mean = crate::assign::mean_heading(&poses);
+        members
+            .iter()
+            .copied()
+            .filter(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .min_by(|&a, &b| {
+                let off = |id: RobotId| {
+                    self.robots
+                        .get(&id)
+                        .map_or(f64::INFINITY, |k| wrap_angle(k.pose.yaw - mean).abs())
+                };
+                off(a).total_cmp(&off(b))
+            })
+            .unwrap_or(members[0])
+    }
+
+    /// Pose of `member` in `leader`'s body frame: planned when both are in the plan.
+    pub(super) fn follow_offset(&self, member: RobotId, leader: RobotId) -> Pose2 {
+        if let Some(plan) = &self.plan {
+            if let (Some(m), Some(l)) = (plan.slot_of(member), plan.slot_of(leader)) {
+                return plan.shape.slots[l].pose.relative(&plan.shape.slots[m].pose);
+            }
+        }
+        match (self.robots.get(&leader), self.robots.get(&member)) {
+            (Some(l), Some(m)) => l.pose.relative(&m.pose),
+            _ => Pose2::default(),
+        }
+    }
+
+    /// Goal of a segment leader when the shape centre should be at `goal`: its slot placed at
+    /// the goal (or the goal itself without a plan).
+    pub(super) fn leader_goal(&self, leader: RobotId, goal: &Pose2) -> Pose2 {
+        match &self.plan {
+            Some(plan) => match plan.slot_of(leader) {
+                Some(s) => goal.compose(&plan.shape.slots[s].pose),
+                None => *goal,
+            },
+            None => *goal,
+        }
+    }
+}

@@ -1,0 +1,356 @@
+//! Every robot's task for one tick, per mode: formation (Algorithm 8 pairs, approaches,
+//! docking), moving, decoupling, dispersing.
+
+use super::*;
+
+impl Coordinator {
+    pub(super) fn align_role(&self, i: usize, me: RobotId) -> Role {
+        let tp = &self.pairs[i];
+        let p: &PlannedPair = &tp.pair;
+        let g = &self.geometry;
+        // Decoupled: bring the augmented head to the opening / hole (THESIS 5.2.3 stage 1);
+        // afterwards the connection points themselves (stage 2, insertion).
+        let a_point = if tp.status == PairStatus::Decoupled {
+            p.point_a.head(g)
+        } else {
+            p.point_a.position(g)
+        };
+        let b_point = p.point_b.position(g);
+        if me == p.a {
+            Role::Align {
+                pair: i,
+                partner: p.b,
+                own_point: a_point,
+                partner_point: b_point,
+                relative_yaw: p.relative_yaw,
+                kind: p.kind,
+                phase: tp.status,
+            }
+        } else {
+            Role::Align {
+                pair: i,
+                partner: p.a,
+                own_point: b_point,
+                partner_point: a_point,
+                relative_yaw: -p.relative_yaw,
+                kind: p.kind,
+                phase: tp.status,
+            }
+        }
+    }
+
+    pub(super) fn tasks(
+        &self,
+        t: f64,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> (Vec<RobotTask>, Vec<usize>) {
+        let members = Self::members(segments);
+        let mut roles: BTreeMap<RobotId, (Role, Option<RobotId>)> = BTreeMap::new();
+        let mut active = Vec::new();
+        // When the leader's role is a pose reference: a chain of anchors moves like a train
+        // (every member keeps its connection to the neighbour towards the leader, so it
+        // follows the leader's path within the anchors' yaw play; a rigid line cannot turn,
+        // its rear would have to move sideways), a rigid segment (knob pairs) moves as one
+        // body (every member tracks the reference composed with its offset in the shape).
+        // Otherwise members follow the leader (THESIS 5.5.9, FollowLeader).
+        let lead_segment = |roles: &mut BTreeMap<RobotId, (Role, Option<RobotId>)>,
+                            seg: usize,
+                            leader: RobotId,
+                            role: Role| {
+            let moving = matches!(
+                role,
+                Role::Track { .. } | Role::GoTo { use_yaw: true, .. } | Role::Align { .. }
+            );
+            // Moving: the leader's rigid part (knobs) moves as one body; a member hanging
+            // at an anchor keeps that connection (a train: it follows its neighbour's path
+            // within the anchor's play, and a bent row straightens behind it); a member
+            // knob-locked to such a member follows that one rigidly.
+            let (rigid, via) = if moving {
+                self.links_towards(&members[&seg], leader)
+            } else {
+                (BTreeSet::new(), BTreeMap::new())
+            };
+            for &m in &members[&seg] {
+                if m == leader {
+                    roles.insert(m, (role.clone(), Some(leader)));
+                    continue;
+                }
+                if moving && !rigid.contains(&m) {
+                    if let Some(&(i, next)) = via.get(&m) {
+                        let own = if self.pairs[i].pair.kind == PairType::AnchorOpening {
+                            self.align_role(i, m)
+                        } else {
+                            Role::Follow {
+                                leader: next,
+                                offset: self.follow_offset(m, next),
+                            }
+                        };
+                        roles.insert(m, (own, Some(leader)));
+                        continue;
+                    }
+                }
+                let offset = self
+                    .motion_offsets
+                    .get(&m)
+                    .copied()
+                    .unwrap_or_else(|| self.follow_offset(m, leader));
+                let own = match &role {
+                    Role::Track { reference } => Role::Track {
+                        reference: reference.iter().map(|p| p.compose(&offset)).collect(),
+                    },
+                    Role::GoTo {
+                        goal,
+                        use_yaw: true,
+                    } => Role::GoTo {
+                        goal: goal.compose(&offset),
+                        use_yaw: true,
+                    },
+                    _ => Role::Follow { leader, offset },
+                };
+                roles.insert(m, (own, Some(leader)));
+            }
+        };
+        match &self.mode {
+            Mode::Hold => {}
+            Mode::Form => {
+                active = self.choose_active(segments);
+                for &i in &active {
+                    let p = self.pairs[i].pair;
+                    // A knob is rigid once in: both sides stand still until it is confirmed.
+                    if p.kind == PairType::KnobHole
+                        && self.pairs[i].status == PairStatus::HeadInserted
+                    {
+                        for side in [p.a, p.b] {
+                            for &m in &members[&segments[&side]] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                        }
+                        continue;
+                    }
+                    if let Some(me) = self.docking_robot(i, segments) {
+                        let other = if me == p.a { p.b } else { p.a };
+                        let seg = segments[&other];
+                        // Only while the docking robot is clear of the side: the row would
+                        // slide its holes past the robot's knobs (a click at the wrong place).
+                        let near = self
+                            .dock_frame(i, me)
+                            .is_none_or(|f| f.lat < self.cfg.dock.clearance);
+                        // Growing, for at most `GROW_STRAIGHTEN` per pair (a pilot in the
+                        // assembly may keep it bent, and it would drive on and on).
+                        let straighten_left = self.grow.is_none()
+                            || self.robots.get(&other).is_some_and(|k| {
+                                let mut from = self.straighten_from.borrow_mut();
+                                let o = *from.entry(i).or_insert(k.pose.xy());
+                                (k.pose.x - o[0]).hypot(k.pose.y - o[1]) < GROW_STRAIGHTEN
+                            });
+                        if !near
+                            && straighten_left
+                            && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend
+                        {
+                            // A bent chain's corners block the approach lane: the assembly
+                            // first drives straight ahead, led by its front robot (a train
+                            // straightens behind its head; pushed from behind it jackknifes);
+                            // the docking robot waits.
+                            let head = self.robots.get(&other).map(|k| k.pose).and_then(|po| {
+                                let (s, c) = po.yaw.sin_cos();
+                                members[&seg]
+                                    .iter()
+                                    .filter_map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
+                                    .max_by(|a, b| {
+                                        let f = |p: &Pose2| p.x * c + p.y * s;
+                                        f(&a.1).total_cmp(&f(&b.1))
+                                    })
+                            });
+                            if let Some((lead, k)) = head {
+                                let ahead = (0..=self.cfg.horizon_steps)
+                                    .map(|j| {
+                                        let x = 0.01 + j as f64 * self.cfg.dock.speed * self.cfg.dt;
+                                        k.compose(&Pose2::new(x, 0.0, 0.0))
+                                    })
+                                    .collect();
+                                lead_segment(
+                                    &mut roles,
+                                    seg,
+                                    lead,
+                                    Role::Track { reference: ahead },
+                                );
+                            }
+                            roles.insert(me, (Role::Hold, None));
+                            continue;
+                        }
+                        if let Some(role) = self.dock_role(i, me) {
+                            roles.insert(me, (role, Some(me)));
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                            continue;
+                        }
+                    }
+                    let home = self.grow.and_then(|seed| segments.get(&seed).copied());
+                    for me in [p.a, p.b] {
+                        let seg = segments[&me];
+                        if home == Some(seg) {
+                            // Growing: the assembly holds still while a robot joins it.
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Hold, None));
+                            }
+                            continue;
+                        }
+                        let alone_pilot = members[&seg]
+                            .iter()
+                            .all(|&m| self.kind_of(m) == RobotKind::Pilot);
+                        if alone_pilot {
+                            // THESIS 3.5.2: pilots are not driven until coupled.
+                            for &m in &members[&seg] {
+                                roles.insert(m, (Role::Wait, None));
+                            }
+                        } else {
+                            let other = if me == p.a { p.b } else { p.a };
+                            let partner_waits = home == Some(segments[&other])
+                                || members[&segments[&other]]
+                                    .iter()
+                                    .all(|&m| self.kind_of(m) == RobotKind::Pilot);
+                            let approach = (p.kind == PairType::AnchorOpening
+                                && partner_waits
+                                && members[&seg].len() == 1
+                                && matches!(
+                                    self.pairs[i].status,
+                                    PairStatus::Decoupled | PairStatus::HeadAligned
+                                ))
+                            .then(|| self.anchor_approach_role(i, me))
+                            .flatten();
+                            let role = approach.unwrap_or_else(|| self.align_role(i, me));
+                            lead_segment(&mut roles, seg, me, role);
+                        }
+                    }
+                }
+                // Unplanned couplings come apart first: the anchor robot wiggles forward
+                // (THESIS 5.7), or the opening robot backwards when the anchor is a pilot's.
+                for w in self.wigglers() {
+                    let (v, om) = self.wiggle_command(&w, t);
+                    roles.insert(w.robot, (Role::Velocity { v, w: om }, Some(w.robot)));
+                    let held = segments.get(&w.partner).and_then(|s| members.get(s));
+                    for &m in held.into_iter().flatten() {
+                        if m != w.robot {
+                            roles.insert(m, (Role::Hold, None));
+                        }
+                    }
+                }
+                // Robots with unfinished pairs that could not start wait.
+                for (i, tp) in self.pairs.iter().enumerate() {
+                    if tp.status != PairStatus::Connected && !self.released.contains(&i) {
+                        for me in [tp.pair.a, tp.pair.b] {
+                            roles.entry(me).or_insert((Role::Wait, None));
+                        }
+                    }
+                }
+            }
+            Mode::Velocity { v, w } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    // The commanded (v, ω) integrated from where the leader was when the
+                    // motion started: a reference that does not drift with tracking errors.
+                    let role = match self.motion_start.get(&leader) {
+                        Some((start, t0)) => Role::Track {
+                            reference: (0..=self.cfg.horizon_steps)
+                                .map(|k| {
+                                    arc(start, *v, *w, ramped(t - t0 + k as f64 * self.cfg.dt))
+                                })
+                                .collect(),
+                        },
+                        None => Role::Velocity { v: *v, w: *w },
+                    };
+                    lead_segment(&mut roles, seg, leader, role);
+                }
+            }
+            Mode::GoTo { goal } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    let target = self.leader_goal(leader, goal);
+                    lead_segment(
+                        &mut roles,
+                        seg,
+                        leader,
+                        Role::GoTo {
+                            goal: target,
+                            use_yaw: true,
+                        },
+                    );
+                }
+            }
+            Mode::Track { trajectory, start } => {
+                for (&seg, m) in &members {
+                    let leader = self.motion_leader(m);
+                    let reference = (0..=self.cfg.horizon_steps)
+                        .filter_map(|k| trajectory.sample(t - start + k as f64 * self.cfg.dt))
+                        .map(|c| self.leader_goal(leader, &c))
+                        .collect();
+                    lead_segment(&mut roles, seg, leader, Role::Track { reference });
+                }
+            }
+            Mode::Rendezvous { robots, gain, anti } => {
+                let part: Vec<(RobotId, Pose2)> = robots
+                    .iter()
+                    .filter_map(|id| {
+                        self.robots
+                            .get(id)
+                            .filter(|_| !self.lost.contains(id))
+                            .map(|k| (*id, k.pose))
+                    })
+                    .collect();
+                let pos: Vec<[f64; 2]> = part.iter().map(|(_, p)| p.xy()).collect();
+                let u = rendezvous(&pos, *gain, *anti);
+                for ((id, pose), u) in part.iter().zip(u) {
+                    let (v, w) = point_command(pose, u[0], u[1], self.cfg.heading_gain);
+                    let (v, w) = if self.kind_of(*id) == RobotKind::Pilot {
+                        (v, 0.0)
+                    } else {
+                        (v, w)
+                    };
+                    roles.insert(*id, (Role::Velocity { v, w }, Some(*id)));
+                }
+            }
+            Mode::Decouple { .. } => {
+                // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds.
+                for w in self.wigglers() {
+                    let (v, om) = self.wiggle_command(&w, t);
+                    roles.insert(w.robot, (Role::Velocity { v, w: om }, Some(w.robot)));
+                    roles.entry(w.partner).or_insert((Role::Hold, None));
+                }
+            }
+            Mode::Disperse { goals } => {
+                for (id, goal) in goals {
+                    roles.insert(
+                        *id,
+                        (
+                            Role::GoTo {
+                                goal: *goal,
+                                use_yaw: false,
+                            },
+                            Some(*id),
+                        ),
+                    );
+                }
+            }
+        }
+        let tasks = segments
+            .iter()
+            .map(|(&id, &segment)| {
+                let (role, leader) = roles.remove(&id).unwrap_or((Role::Hold, None));
+                RobotTask {
+                    robot: id,
+                    role,
+                    // A pilot alone moves straight only (THESIS 5.4.1: it turns imprecisely);
+                    // coupled, it turns with its assembly within its own v–ω limits (THESIS
+                    // 3.4, Fig. 3.13): held straight, it would fight the non-pilots steering
+                    // the train until the anchor's yaw play runs out and it comes loose.
+                    straight_only: self.kind_of(id) == RobotKind::Pilot
+                        && members.get(&segment).is_none_or(|m| m.len() == 1),
+                    leader,
+                    segment,
+                }
+            })
+            .collect();
+        (tasks, active)
+    }
+}
