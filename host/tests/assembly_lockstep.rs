@@ -161,46 +161,62 @@ fn xy(truth: &GroundTruth, id: RobotId) -> [f64; 2] {
     [p.x, p.y]
 }
 
-#[test]
-fn a_coupled_pair_decouples_by_wiggling_and_both_reach_separate_goals() {
-    // Robot 2's anchor in robot 1's opening at the start (THESIS 5.7: the anchor robot
-    // wiggles until the anchor slips out).
-    let text = fleet_text(&[
-        (1, "NonPilot", [0.0, 0.0, 0.0]),
-        (2, "NonPilot", [0.05, 0.0, 0.0]),
-    ]) + "[[couplings]]\nkind = \"Anchor\"\na = 2\nb = 1\n";
-    let f = sim(&text);
-    let mut ctl = controller(
-        &f,
+/// Robot 2's anchor in robot 1's opening at the start (THESIS 5.7: the anchor robot wiggles
+/// until the anchor slips out), the simulator run from `seed`.
+fn coupled_pair(seed: u64) -> Scenario {
+    sim(&(seeded_fleet_text(
+        seed,
+        &[
+            (1, "NonPilot", [0.0, 0.0, 0.0]),
+            (2, "NonPilot", [0.05, 0.0, 0.0]),
+        ],
+    ) + "[[couplings]]\nkind = \"Anchor\"\na = 2\nb = 1\n"))
+}
+
+/// The pair is tracked (a line of two), then wiggled apart within `timeout_s`.
+fn release_steps(timeout_s: f64) -> String {
+    format!(
         r#"
 name = "release"
 [[step]]
-form = { shape = "line", heading_deg = 0 }
+form = {{ shape = "line", heading_deg = 0 }}
 timeout_s = 10
 [[step]]
-decouple = { v_bias = 0.08, w_max = 6.0, period_s = 1.0 }
-timeout_s = 25
-[[step]]
+decouple = {{ v_bias = 0.08, w_max = 6.0, period_s = 1.0 }}
+timeout_s = {timeout_s}
+"#
+    )
+}
+
+/// When the simulator released robot 2's anchor from robot 1 (s since the run started).
+fn released_at(o: &Outcome) -> Option<f64> {
+    o.run
+        .sim_events
+        .iter()
+        .find(|e| matches!(e.kind, SimEventKind::Decoupled { a: 2, b: 1, .. }))
+        .map(|e| e.t_us.saturating_sub(o.run.start_us) as f64 * 1e-6)
+}
+
+#[test]
+fn a_coupled_pair_decouples_by_wiggling_and_both_reach_separate_goals() {
+    let f = coupled_pair(3);
+    let scenario = release_steps(25.0)
+        + r#"[[step]]
 disperse = { tolerance = 0.02, goal = [ { robot = 1, x = -0.15, y = 0.15 }, { robot = 2, x = 0.25, y = -0.1 } ] }
 timeout_s = 25
-"#,
-    );
+"#;
+    let mut ctl = controller(&f, &scenario);
     // With 30 ms of controller latency, as a real host's solve time.
     let o = run_with_latency(&f, &mut ctl, asm_events, 62.0, 30.0, |_, _| {});
     assert!(finished(&ctl), "state {:?}", ctl.state());
     // The simulator saw the anchor come out (not just the planner thinking so).
-    let released = o
-        .run
-        .sim_events
-        .iter()
-        .find(|e| matches!(e.kind, SimEventKind::Decoupled { a: 2, b: 1, .. }))
-        .expect("the simulator decoupled robot 2's anchor from robot 1");
+    let t_released =
+        released_at(&o).expect("the simulator decoupled robot 2's anchor from robot 1");
     let dispersing = ctl
         .events
         .iter()
         .find(|e| matches!(&e.kind, EventKind::StepStarted { index: 2, .. }))
         .expect("the disperse step started");
-    let t_released = released.t_us.saturating_sub(o.run.start_us) as f64 * 1e-6;
     assert!(
         t_released <= dispersing.t + 0.2,
         "released at {t_released:.2} s, after the robots were sent apart at {:.2} s",
@@ -222,33 +238,11 @@ fn the_wiggle_releases_an_anchor_within_three_seconds_at_any_latency() {
     let mut slow = Vec::new();
     for seed in 1..=4 {
         for latency_ms in [0.0, 20.0, 40.0, 60.0] {
-            let text = seeded_fleet_text(
-                seed,
-                &[
-                    (1, "NonPilot", [0.0, 0.0, 0.0]),
-                    (2, "NonPilot", [0.05, 0.0, 0.0]),
-                ],
-            ) + "[[couplings]]\nkind = \"Anchor\"\na = 2\nb = 1\n";
-            let f = sim(&text);
-            let mut ctl = controller(
-                &f,
-                r#"
-name = "release"
-[[step]]
-form = { shape = "line", heading_deg = 0 }
-timeout_s = 2
-[[step]]
-decouple = { v_bias = 0.08, w_max = 6.0, period_s = 1.0 }
-timeout_s = 10
-"#,
-            );
-            let o = run_with_latency(&f, &mut ctl, |_| Vec::new(), 12.0, latency_ms, |_, _| {});
-            let released = o
-                .run
-                .sim_events
-                .iter()
-                .find(|e| matches!(e.kind, SimEventKind::Decoupled { a: 2, b: 1, .. }))
-                .map(|e| e.t_us.saturating_sub(o.run.start_us) as f64 * 1e-6);
+            let f = coupled_pair(seed);
+            let mut ctl = controller(&f, &release_steps(10.0));
+            let o = run_with_latency(&f, &mut ctl, |_| Vec::new(), 20.0, latency_ms, |_, _| {});
+            // The decouple step starts ≈ 0.4 s in, once the pair is confirmed connected.
+            let released = released_at(&o);
             println!("seed {seed} latency {latency_ms} ms: released at {released:?} s");
             if released.is_none_or(|t| t > 3.0) || !finished(&ctl) {
                 slow.push((seed, latency_ms, released));
