@@ -27,12 +27,9 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the paper's per-component equations
 
 use crate::model::{cross, sub, ConnectorSpec, RContact, Resolved, Vec3};
-use crate::socp::{char_length, ConnLayout, ContactLayout, Program, SLOTS};
+use crate::socp::{char_length, ConnLayout, ContactLayout, Program, SLOTS, SLOT_AXIS};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::SupportedConeT::{self, *};
-
-/// Local wrench axis of each slot (0..3 force, 3..6 couple).
-const SLOT_AXIS: [usize; SLOTS] = [0, 1, 2, 2, 3, 4, 5];
 
 /// Tag of a second-order-cone variable before renumbering (nonnegative variables come first).
 const SOC_TAG: usize = 1 << (usize::BITS - 1);
@@ -206,18 +203,8 @@ pub fn build_relaxed_with(r: &Resolved, pad_dense: bool) -> Program {
         if let Some(w) = w_max {
             bld.push(w, w_row, 1.0);
         }
-        for slot in 0..SLOTS {
-            if let Some(v) = lay.var[slot] {
-                let ax = SLOT_AXIS[slot];
-                let (axis, is_couple) = if ax < 3 {
-                    (c.frame[ax], false)
-                } else {
-                    (c.frame[ax - 3], true)
-                };
-                let s = lay.scale[slot];
-                add_eq(&mut bld, c.child, v, axis, is_couple, c.point, s);
-                add_eq(&mut bld, c.parent, v, axis, is_couple, c.point, -s);
-            }
+        for (module, v, axis, is_couple, s) in lay.equilibrium_terms(c) {
+            add_eq(&mut bld, module, v, axis, is_couple, c.point, s);
         }
         conns.push(lay);
     }

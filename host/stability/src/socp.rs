@@ -19,7 +19,7 @@ use clarabel::solver::{
 /// Component slots of a connection: f_x, f_y, f_con^z, f_s, m_x, m_y, m_z.
 pub const SLOTS: usize = 7;
 /// Local wrench axis of each slot (0..3 force, 3..6 couple).
-const SLOT_AXIS: [usize; SLOTS] = [0, 1, 2, 2, 3, 4, 5];
+pub(crate) const SLOT_AXIS: [usize; SLOTS] = [0, 1, 2, 2, 3, 4, 5];
 
 /// Where a connection's components live in x.
 #[derive(Debug, Clone)]
@@ -30,6 +30,32 @@ pub struct ConnLayout {
     pub scale: [f64; SLOTS],
     /// Index of w_Aik (box connectors).
     pub strength: Option<usize>,
+}
+
+impl ConnLayout {
+    /// This connection's terms of the module equilibria (SOCP (1), (11)): for every present
+    /// component, (module, variable, world axis, is a couple, signed scale), with + on the child
+    /// and − on the parent (SOCP 20).
+    pub(crate) fn equilibrium_terms<'a>(
+        &'a self,
+        c: &'a crate::model::RConnection,
+    ) -> impl Iterator<Item = (usize, usize, Vec3, bool, f64)> + 'a {
+        (0..SLOTS).flat_map(move |slot| {
+            self.var[slot].into_iter().flat_map(move |v| {
+                let ax = SLOT_AXIS[slot];
+                let (axis, is_couple) = if ax < 3 {
+                    (c.frame[ax], false)
+                } else {
+                    (c.frame[ax - 3], true)
+                };
+                let s = self.scale[slot];
+                [
+                    (c.child, v, axis, is_couple, s),
+                    (c.parent, v, axis, is_couple, -s),
+                ]
+            })
+        })
+    }
 }
 
 /// Where a contact's components live in x: (f_z, f_x/μ_x, f_y/μ_y).
@@ -358,18 +384,8 @@ pub fn build(r: &Resolved, with_limits: bool) -> Program {
             nn_b.push(0.0);
         }
         // Equilibrium (1), (11) for the child (+) and the parent (−, SOCP 20).
-        for slot in 0..SLOTS {
-            if let Some(v) = lay.var[slot] {
-                let ax = SLOT_AXIS[slot];
-                let (axis, is_couple) = if ax < 3 {
-                    (c.frame[ax], false)
-                } else {
-                    (c.frame[ax - 3], true)
-                };
-                let s = lay.scale[slot];
-                add_eq(&mut eq, c.child, v, axis, is_couple, c.point, s);
-                add_eq(&mut eq, c.parent, v, axis, is_couple, c.point, -s);
-            }
+        for (module, v, axis, is_couple, s) in lay.equilibrium_terms(c) {
+            add_eq(&mut eq, module, v, axis, is_couple, c.point, s);
         }
         conns.push(lay);
     }
