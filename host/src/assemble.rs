@@ -625,8 +625,8 @@ pub async fn run_scenario(
 
 /// [`run_scenario`] with the host's controller stepped in lockstep with the simulator
 /// ([`crate::lockstep`]: no sockets, no wall clock, the simulated motion capture as pose
-/// input): deterministic, faster than real time. The run folder gets the same event files;
-/// there is no link telemetry.
+/// input): deterministic, faster than real time. The run folder gets the same event files and
+/// the trajectory plot (ground truth); there is no link telemetry.
 pub fn run_scenario_lockstep(
     scenario: AsmScenario,
     sim: puzzlebot_sim::Scenario,
@@ -642,7 +642,17 @@ pub fn run_scenario_lockstep(
     let mut ls = crate::lockstep::Lockstep::new(&sim)?;
     let mut ctl = AssemblyController::new(scenario, params, gate)?;
     let mut folder = RunFolder::create(runs_dir, &name)?;
-    ls.run(&mut ctl, max_duration, |_, _| {});
+    // The simulator's ground-truth paths for the run folder's trajectory plot, at 10 Hz.
+    let mut next = 0.0;
+    ls.run(&mut ctl, max_duration, |w, t| {
+        if t >= next {
+            next = t + 0.1;
+            for r in w.ground_truth().robots {
+                let tr = folder.traces.entry(r.id).or_default();
+                tr.actual.push((t, r.pose.x, r.pose.y));
+            }
+        }
+    });
     write_events(&mut folder, &ctl)?;
     folder.finish()?;
     let report = report_of(
@@ -815,11 +825,11 @@ pub fn mode_name(m: &Mode) -> &'static str {
 /// yet (README, Status).
 pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
 
-/// What `puzzlebot demo --assembly` runs (host/assembly/data/scenarios/grow_mesh.toml): a 2-row
+/// What `puzzlebot demo` runs (host/assembly/data/scenarios/grow_mesh.toml): a 2-row
 /// mesh grown around the pilot of [`grow_demo_fleet`], driven 0.5 m.
 pub const GROW_DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/grow_mesh.toml");
 
-/// The fleet of `puzzlebot demo --assembly`: six robots, one pilot, scattered over
+/// The fleet of `puzzlebot demo`: six robots, one pilot, scattered over
 /// 0.6 m × 0.6 m. Seed 5 is a start the mesh grows from and drives intact; over seeds 1–12,
 /// 11 form and 8 of them drive intact (README, Status).
 pub fn grow_demo_fleet() -> puzzlebot_sim::Scenario {

@@ -39,17 +39,20 @@ enum ModeArg {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// In-process simulated fleet of 4 robots over loopback: lines and circles (default).
+    /// The main job on a simulated fleet: 6 scattered robots (1 pilot) grow a 2-row mesh
+    /// around the pilot and drive it 0.5 m (host/assembly/data/scenarios/grow_mesh.toml), the
+    /// host's controller in lockstep with the simulator (deterministic, faster than real time).
     Demo {
-        /// The assembly demo instead: 6 scattered robots (1 pilot) grow a 2-row mesh around the
-        /// pilot and drive it 0.5 m (host/assembly/data/scenarios/grow_mesh.toml), in lockstep
-        /// with the simulator (deterministic, faster than real time).
+        /// The link demo instead: 4 robots over loopback UDP track lines and circles.
+        #[arg(long, conflicts_with = "realtime")]
+        tracking: bool,
+        /// Run the assembly demo over loopback UDP in real time instead of in lockstep (the
+        /// controller's own latency makes formation less reliable: see the README's Status).
         #[arg(long)]
-        assembly: bool,
-        /// With --assembly: run over loopback UDP in real time instead (the controller's own
-        /// latency makes formation less reliable: see the README's Status).
-        #[arg(long, requires = "assembly")]
         realtime: bool,
+        /// The assembly demo (the default; accepted for scripts of earlier versions).
+        #[arg(long, hide = true, conflicts_with = "tracking")]
+        assembly: bool,
     },
     /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
     /// run an assembly scenario file against a simulated fleet.
@@ -206,15 +209,17 @@ fn main() -> ExitCode {
 async fn run(cli: Cli) -> anyhow::Result<()> {
     let runs = cli.runs_dir;
     match cli.command.unwrap_or(Cmd::Demo {
-        assembly: false,
+        tracking: false,
         realtime: false,
+        assembly: false,
     }) {
         Cmd::Demo {
-            assembly: true,
+            tracking: false,
             realtime,
+            ..
         } => {
             println!(
-                "puzzlebot demo --assembly: 6 simulated robots (1 pilot) scattered in 0.6 m x 0.6 m grow a 2-row mesh around the pilot, one robot at a time, and drive it 0.5 m ({})",
+                "puzzlebot demo: 6 simulated robots (1 pilot) scattered in 0.6 m x 0.6 m grow a 2-row mesh around the pilot, one robot at a time, and drive it 0.5 m ({})",
                 if realtime {
                     "over loopback UDP in real time"
                 } else {
@@ -280,10 +285,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
             }
         }
-        Cmd::Demo {
-            assembly: false, ..
-        } => {
-            println!("puzzlebot demo: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
+        Cmd::Demo { tracking: true, .. } => {
+            println!("puzzlebot demo --tracking: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
             let t0 = std::time::Instant::now();
             let report = app::demo(&runs, true).await?;
             print!("{}", app::describe(&report));
@@ -392,4 +395,35 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn demo(args: &[&str]) -> Result<(bool, bool), String> {
+        let cli = Cli::try_parse_from(std::iter::once("puzzlebot").chain(args.iter().copied()))
+            .map_err(|e| e.to_string())?;
+        match cli.command {
+            Some(Cmd::Demo {
+                tracking, realtime, ..
+            }) => Ok((tracking, realtime)),
+            _ => Err("not a demo".into()),
+        }
+    }
+
+    #[test]
+    fn demo_runs_the_assembly_by_default_and_the_link_demo_on_request() {
+        assert_eq!(demo(&["demo"]), Ok((false, false)));
+        assert_eq!(demo(&["demo", "--realtime"]), Ok((false, true)));
+        assert_eq!(demo(&["demo", "--tracking"]), Ok((true, false)));
+        // Scripts written for `demo --assembly` keep working.
+        assert_eq!(
+            demo(&["demo", "--assembly", "--realtime"]),
+            Ok((false, true))
+        );
+        // The link demo has no real-time switch (it always is).
+        let err = demo(&["demo", "--tracking", "--realtime"]).expect_err("conflict");
+        assert!(err.contains("--realtime"), "{err}");
+    }
 }

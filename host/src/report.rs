@@ -122,6 +122,8 @@ impl RunFolder {
             let p = self.dir.join("trajectories.svg");
             plot_trajectories(&p, &self.traces).map_err(std::io::Error::other)?;
             out.push(p);
+        }
+        if self.traces.values().any(|t| !t.wheels.is_empty()) {
             let p = self.dir.join("wheel_speeds.svg");
             plot_wheels(&p, &self.traces).map_err(std::io::Error::other)?;
             out.push(p);

@@ -15,7 +15,7 @@
 //! - a non-pilot reaches a waiting pilot from the wrong side without pushing it (THESIS 3.5.2);
 //! - six robots (one pilot) scattered over 0.6 m × 0.6 m grow a 2-row mesh around the pilot,
 //!   one robot at a time round the others, and drive it 0.5 m;
-//! - `puzzlebot demo --assembly` (the grown mesh driven 0.5 m), exactly as the binary runs it;
+//! - `puzzlebot demo` (the grown mesh driven 0.5 m), exactly as the binary runs it;
 //! - (ignored, failing) issue 7's full demo: 6 robots with 2 pilots, dissolving, dispersing.
 //!
 //! The decoupling, lost-robot and gate tests run with 30 ms of controller latency (a real
@@ -494,7 +494,7 @@ timeout_s = 50
 }
 
 #[test]
-#[ignore = "fails (measured 2026-11-22, seeds 1-20 of scattered_fleet): with 2 pilots every order of the 2-row mesh needs a train holding one pilot to manoeuvre onto the other pilot's axis (towing, not planned); and a mesh cannot be dissolved in the simulator (knob pairs are released only by hand). `demo --assembly` runs the grown 1-pilot mesh instead; issue 7"]
+#[ignore = "fails (measured 2026-11-22, seeds 1-20 of scattered_fleet): with 2 pilots every order of the 2-row mesh needs a train holding one pilot to manoeuvre onto the other pilot's axis (towing, not planned); and a mesh cannot be dissolved in the simulator (knob pairs are released only by hand). `demo` runs the grown 1-pilot mesh instead; issue 7"]
 fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
     // Issue 7's demo (demo.toml): six scattered robots (two pilots) form a 2-row mesh, move
     // it 0.5 m, dissolve it and every robot reaches its own goal.
@@ -622,7 +622,7 @@ timeout_s = 240
 
 #[test]
 fn the_assembly_demo_grows_a_mesh_and_drives_it_half_a_metre() {
-    // Exactly what `puzzlebot demo --assembly` runs, in lockstep. Measured 2026-11-22 over
+    // Exactly what `puzzlebot demo` runs, in lockstep. Measured 2026-11-22 over
     // seeds 1–12 of `scattered_fleet(6, 1, seed)`: 11 form, 8 of them also drive 0.5 m with
     // every coupling intact (the others pop an anchor while driving); the demo's seed 5 is one
     // of the eight.
