@@ -26,6 +26,7 @@ use crate::assign::RobotState;
 use crate::behaviour::{Trajectory, Wiggle};
 use crate::coordinator::{Coordinator, EventKind, Mode, Tick};
 use crate::geom::Pose2;
+use crate::pair::PairStatus;
 use crate::shape::{Shape, ShapeSpec};
 use puzzlebot_params::geometry::Geometry;
 use puzzlebot_protocol::messages::RobotId;
@@ -677,6 +678,26 @@ impl ScenarioRunner {
         &self.scenario
     }
 
+    /// A connected pair that this tick saw come apart during a move of the assembly.
+    fn came_apart_while_moving(step: &Step, tick: &Tick) -> Option<(RobotId, RobotId)> {
+        if !matches!(
+            step.behaviour,
+            Behaviour::Velocity { .. } | Behaviour::GoTo { .. } | Behaviour::Trajectory { .. }
+        ) {
+            return None;
+        }
+        tick.events.iter().find_map(|e| match e.kind {
+            EventKind::PairStatus {
+                a,
+                b,
+                from: PairStatus::Connected,
+                to: PairStatus::Decoupled,
+                ..
+            } => Some((a, b)),
+            _ => None,
+        })
+    }
+
     fn fail(&mut self, t: f64, index: usize, reason: String) {
         self.coordinator.set_mode(t, Mode::Hold);
         self.coordinator.record(
@@ -873,7 +894,18 @@ impl ScenarioRunner {
         if let RunState::Running { index } = self.state {
             let step = self.scenario.steps[index].clone();
             let start = self.step_start.unwrap_or(t);
-            if self.done(t, start, &step, &tick) {
+            if let Some((a, b)) = Self::came_apart_while_moving(&step, &tick) {
+                // An assembly that lost a coupling is not the assembly the move was planned
+                // (and gated) for: it stops, and the step fails saying why.
+                self.fail(
+                    t,
+                    index,
+                    format!(
+                        "pair {a}-{b} came apart while moving in step '{}'",
+                        step.label
+                    ),
+                );
+            } else if self.done(t, start, &step, &tick) {
                 self.coordinator
                     .record(t, EventKind::StepFinished { index });
                 self.step_start = None;
@@ -1076,6 +1108,50 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
                 .count(),
             2
         );
+    }
+
+    #[test]
+    fn a_move_stops_and_fails_when_a_pair_comes_apart() {
+        let text = "[[step]]\nform = { shape = \"line\" }\ntimeout_s = 5\n\
+                    [[step]]\nlabel = \"drive\"\nmove = { velocity = [0.02, 0.0], duration_s = 5 }\n";
+        let mut r = ScenarioRunner::new(
+            parse(text).unwrap(),
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        let at = |x1: f64, x2: f64| {
+            vec![
+                RobotState {
+                    id: 1,
+                    kind: RobotKind::NonPilot,
+                    pose: Pose2::new(x1, 0.0, 0.0),
+                },
+                RobotState {
+                    id: 2,
+                    kind: RobotKind::NonPilot,
+                    pose: Pose2::new(x2, 0.0, 0.0),
+                },
+            ]
+        };
+        // Coupled in a line; the move starts; 1 s into it the front robot is 3 cm ahead of
+        // where its anchor could reach.
+        let mut t = 0.0;
+        while t < 2.0 {
+            r.tick(t, &at(0.05, 0.0));
+            t += 0.1;
+        }
+        assert_eq!(r.state(), &RunState::Running { index: 1 });
+        r.tick(t, &at(0.08, 0.0));
+        match r.state() {
+            RunState::Failed { index: 1, reason } => {
+                assert!(
+                    reason.contains("came apart") && reason.contains("drive"),
+                    "{reason}"
+                )
+            }
+            other => panic!("{other:?}"),
+        }
+        // The assembly stops: every robot holds.
+        assert_eq!(r.coordinator().mode(), &Mode::Hold);
     }
 
     #[test]
