@@ -180,7 +180,9 @@ impl Lockstep {
     }
 
     /// The controller's commands take effect `ms` after its tick, as on a real host where
-    /// the solve takes time while the fleet moves on (default 0).
+    /// the solve takes time while the fleet moves on (default 0). Delayed commands are picked
+    /// up at the next 30 Hz command period, so the effective delay is rounded up to whole
+    /// periods: 1–33 ms all act as one period (measured: 10, 20 and 30 ms gave identical runs).
     pub fn command_delay(mut self, ms: f64) -> Self {
         self.command_delay_us = (ms.max(0.0) * 1000.0) as u64;
         self
