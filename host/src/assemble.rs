@@ -122,6 +122,9 @@ pub struct AssemblyController {
     pub constraint_retries: u64,
     /// Extra seconds after the scenario ends before [`Controller::done`].
     pub settle: f64,
+    /// Log milestones (steps, couplings, formation, lost robots) on the console (default on;
+    /// off for batch runs such as the coupling experiment).
+    pub log_milestones: bool,
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
     coupled: BTreeSet<RobotId>,
     finished_at: Option<f64>,
@@ -162,6 +165,7 @@ impl AssemblyController {
             coupling_constraints: true,
             constraint_retries: 0,
             settle: 0.5,
+            log_milestones: true,
             coupled: BTreeSet::new(),
             finished_at: None,
         })
@@ -409,7 +413,7 @@ impl Controller for AssemblyController {
                 | EventKind::Replanned { .. } => true,
                 _ => false,
             };
-            if milestone {
+            if milestone && self.log_milestones {
                 tracing::info!(t = format!("{:.1}", e.t), event = %serde_json::to_string(&e.kind).unwrap_or_default(), "assembly");
             }
         }

@@ -111,6 +111,7 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
         AsmScenario::from_toml_str(Path::new("coupling.toml"), FORM, &params.non_pilot.geometry)?;
     let mut ctl = AssemblyController::new(asm, params.clone(), GateConfig::default())?;
     ctl.settle = 0.0;
+    ctl.log_milestones = false;
     let ls_run = ls.run(&mut ctl, RUN_LIMIT_S, |_, _| {});
     let w = &ls.world;
     let coupled_at = ls_run.sim_events.iter().find_map(|e| match e.kind {
@@ -152,8 +153,13 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
     })
 }
 
-/// The 5 × 5 grid × `runs` (THESIS 5.2.3), run on `threads` threads.
-pub fn run_all(runs: usize, threads: usize) -> anyhow::Result<Vec<CouplingRun>> {
+/// The 5 × 5 grid × `runs` (THESIS 5.2.3), run on `threads` threads; `on_run` is called after
+/// each run (progress).
+pub fn run_all(
+    runs: usize,
+    threads: usize,
+    on_run: &(dyn Fn() + Sync),
+) -> anyhow::Result<Vec<CouplingRun>> {
     let mut jobs = Vec::new();
     for i in 0..5 {
         for j in 0..5 {
@@ -178,7 +184,11 @@ pub fn run_all(runs: usize, threads: usize) -> anyhow::Result<Vec<CouplingRun>> 
             .map(|c| {
                 s.spawn(move || {
                     c.iter()
-                        .map(|&(dx, dy, r, seed)| run_once(dx, dy, r, seed))
+                        .map(|&(dx, dy, r, seed)| {
+                            let run = run_once(dx, dy, r, seed);
+                            on_run();
+                            run
+                        })
                         .collect::<anyhow::Result<Vec<_>>>()
                 })
             })
@@ -267,7 +277,10 @@ pub fn describe(s: &CouplingStats) -> String {
 /// into a new run folder.
 pub fn coupling_command(runs: usize, runs_dir: &Path) -> anyhow::Result<CouplingStats> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut s = stats(run_all(runs, threads)?);
+    let pb = crate::app::progress_bar((25 * runs) as f64, "runs");
+    let result = run_all(runs, threads, &|| pb.inc(1));
+    pb.finish_and_clear();
+    let mut s = stats(result?);
     let folder = RunFolder::create(runs_dir, "coupling")?;
     folder.write_json("coupling.json", &s)?;
     plot(&folder.dir().join("coupling.svg"), &s).map_err(anyhow::Error::msg)?;
@@ -336,7 +349,7 @@ mod tests {
     #[test]
     fn coupling_experiment_meets_the_thesis_rates() {
         // One run per start position (25 runs) keeps the test quick; the command runs 5.
-        let s = stats(run_all(1, 2).expect("experiment runs"));
+        let s = stats(run_all(1, 2, &|| {}).expect("experiment runs"));
         assert_eq!(s.runs.len(), 25);
         assert!(
             s.aligned_within_5s >= THESIS_ALIGNED_WITHIN_5S,
