@@ -14,9 +14,10 @@ pub struct Wiggle {
     pub v_bias: f64,
     /// Turn rate amplitude ω_max (rad/s).
     pub w_max: f64,
-    /// Period 2π/B (s).
+    /// Period 2π/B (s) of the sinusoid; the square wave's longest stroke (its strokes end at
+    /// the measured relative yaw, [`WiggleTurn`]).
     pub period_s: f64,
-    /// Square wave sgn(sin(Bt)) as in THESIS (5.7); false: sinusoid as in (4.2).
+    /// Square wave sgn(sin(Bt)) as in THESIS (5.7), closed loop; false: sinusoid as in (4.2).
     pub square: bool,
 }
 
