@@ -428,6 +428,10 @@ pub struct CoordinatorConfig {
     pub heading_gain: f64,
     /// Staged approach of side connections.
     pub dock: DockConfig,
+    /// A formation counts as complete once every planned pair has stayed connected this long
+    /// (s): the last join can knock an earlier pair loose (measured in lockstep: a pair came
+    /// apart 0.1 s after the last one connected, and the run ended with it apart).
+    pub form_settle_s: f64,
 }
 
 impl Default for CoordinatorConfig {
@@ -437,6 +441,7 @@ impl Default for CoordinatorConfig {
             lost_after_s: 1.0,
             strict_convex_first: true,
             horizon_steps: 10,
+            form_settle_s: 1.0,
             dt: 0.1,
             heading_gain: 1.0,
             dock: DockConfig::default(),
@@ -466,6 +471,8 @@ pub struct Coordinator {
     events: Vec<Event>,
     pending: Vec<Event>,
     complete_reported: bool,
+    /// Since when every planned pair has been connected (s).
+    complete_since: Option<f64>,
     /// Velocity mode: each segment leader's pose and the time when its motion started (the
     /// origin of the segment's virtual rigid-body reference).
     motion_start: BTreeMap<RobotId, (Pose2, f64)>,
@@ -505,6 +512,7 @@ impl Coordinator {
             events: Vec::new(),
             pending: Vec::new(),
             complete_reported: false,
+            complete_since: None,
             motion_start: BTreeMap::new(),
             motion_offsets: BTreeMap::new(),
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
@@ -726,6 +734,7 @@ impl Coordinator {
             .collect();
         self.released.clear();
         self.complete_reported = false;
+        self.complete_since = None;
         let robots = plan.slot_robot.clone();
         let n = plan.pairs.len();
         self.plan = Some(plan);
@@ -936,7 +945,14 @@ impl Coordinator {
             }
         }
         self.update_wiggles(t);
-        let complete = self.is_complete();
+        self.complete_since = if self.is_complete() {
+            Some(self.complete_since.unwrap_or(t))
+        } else {
+            None
+        };
+        let complete = self
+            .complete_since
+            .is_some_and(|since| t - since >= self.cfg.form_settle_s - 1e-9);
         if complete && !self.complete_reported && self.mode == Mode::Form {
             self.complete_reported = true;
             self.push(t, EventKind::FormationComplete);
@@ -1101,7 +1117,9 @@ mod tests {
         let t1 = c.tick(1.0, &goal);
         assert!(!t1.complete);
         let t2 = c.tick(1.5, &goal);
-        assert!(t2.complete);
+        assert!(!t2.complete, "all connected, not yet settled");
+        let t2 = c.tick(2.5, &goal);
+        assert!(t2.complete, "connected for form_settle_s");
         assert!(t2
             .events
             .iter()
@@ -1294,7 +1312,9 @@ mod tests {
 
     #[test]
     fn assembly_moves_with_one_leader_and_decouples() {
+        // Formation completes as soon as the pair connects (no settling), so the move starts.
         let mut c = coordinator();
+        c.cfg.form_settle_s = 0.0;
         let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
