@@ -625,9 +625,9 @@ timeout_s = 240
 #[test]
 fn the_assembly_demo_grows_a_mesh_and_drives_it_half_a_metre() {
     // Exactly what `puzzlebot demo` runs, in lockstep. Measured 2026-11-22 over
-    // seeds 1–12 of `scattered_fleet(6, 1, seed)`: 11 form, 8 of them also drive 0.5 m with
-    // every coupling intact (the others pop an anchor while driving); the demo's seed 5 is one
-    // of the eight.
+    // seeds 1–12 of `scattered_fleet(6, 1, seed)`: 10 grow the mesh and drive it 0.5 m with
+    // every coupling intact (8 before the formation settling of session 5; the others pop an
+    // anchor while driving); the demo's seed 5 is one of the ten.
     let f = puzzlebot_host::assemble::grow_demo_fleet();
     let mut ctl = controller(&f, puzzlebot_host::assemble::GROW_DEMO_SCENARIO);
     // The pilot's pose over the run, to measure the drive from where the step began.
