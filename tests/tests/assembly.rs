@@ -57,12 +57,12 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-11-22, session 5: passed 4 of 10 loopback runs): \
-            the second pair to join bends the head's anchor joint past 0.35 rad (robot 2 turns \
-            to meet robot 3 with robot 1 hanging in front), one anchor leg pops, and \
-            straightening the joint under the line's pull releases it 1-2 s into the drive; \
-            the lockstep version fails the same way for 3 of 12 seeds without latency, 5 of \
-            12 with 10-30 ms"]
+#[ignore = "flaky in real time (measured 2026-11-22, session 5: 4 of 10 loopback runs, 5 of 6 \
+            after the formation settles 1 s before it counts as complete): the second pair to \
+            join bends the head's anchor joint past 0.35 rad (robot 2 turns to meet robot 3 \
+            with robot 1 hanging in front), one anchor leg pops, and straightening the joint \
+            under the line's pull releases it 1-2 s into the drive; the lockstep version \
+            fails the same way for 4 of 12 seeds without latency, 5 of 12 with 10-30 ms"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -114,8 +114,9 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-11-22: 11 of 11 runs on this machine, then \
             failed once in a clean-clone CI run: the last robot joining the 3-robot assembly by \
-            anchor did not couple within 50 s; session 5: 10 of 10 loopback runs); the lockstep \
-            version fails for 2-3 of 12 seeds at 0-30 ms of latency"]
+            anchor did not couple within 50 s; session 5: 24 of 24 loopback runs, 8 of them \
+            with both cores loaded); the lockstep version fails for 2-3 of 12 seeds at 0-30 ms \
+            of latency"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -175,10 +176,11 @@ timeout_s = 25
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-11-22: session 4 11 of 11 then a clean-clone \
-            CI failure, session 5 8 of 10): robot 4 is always declared lost and re-planned out, \
-            but the last join stalls 1 mm short of its seat (the MPC's command falls below the \
-            wheels' dead-band) and pose noise lets the host count the anchor inserted while \
-            the simulator has it apart; the lockstep version passes with 30 ms of latency"]
+            CI failure; session 5 8 of 10, then with the formation settling 6 of 6 idle and 6 of \
+            8 with both cores loaded): robot 4 is always declared lost and re-planned out, but \
+            the host counts a pair connected that the simulator has apart (a join stalled 1 mm \
+            short of its seat, the MPC's command below the wheels' dead-band, and pose noise \
+            passed the insertion test); the lockstep version passes 12 of 12 seeds"]
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
