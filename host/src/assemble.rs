@@ -835,7 +835,7 @@ pub const GROW_DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/gr
 
 /// The fleet of `puzzlebot demo`: six robots, one pilot, scattered over
 /// 0.6 m × 0.6 m. Seed 5 is a start the mesh grows from and drives intact; over seeds 1–12,
-/// 11 form and 8 of them drive intact (README, Status).
+/// 10 grow it and drive it intact (README, Status).
 pub fn grow_demo_fleet() -> puzzlebot_sim::Scenario {
     scattered_fleet(6, 1, 5)
 }

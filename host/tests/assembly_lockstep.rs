@@ -232,7 +232,7 @@ timeout_s = 25
 
 /// The wiggle pops the anchor within a few strokes whatever the controller's latency and the
 /// simulator's noise: its strokes end at the measured relative yaw, not on the clock (open
-/// loop, a 1 s square wave left the pair coupled for 25 s in a loaded loopback CI run).
+/// loop, a 1 s square wave left the pair coupled for 25 s in a CI run over loopback).
 #[test]
 fn the_wiggle_releases_an_anchor_within_three_seconds_at_any_latency() {
     let mut slow = Vec::new();
@@ -575,7 +575,7 @@ fn six_scattered_robots_grow_a_two_row_mesh_around_their_pilot() {
     // The formation a user starts from: robots dropped anywhere. Forming in parallel needs
     // trains to manoeuvre onto each other; grown around the pilot (which is never driven
     // alone, THESIS 3.5.2), every robot joins the assembly alone, routed round the others.
-    // Measured 2026-11-22 over seeds 1–12: 11 form within 240 s, 8 of them without the pilot
+    // Measured 2026-11-22 (session 4) over seeds 1–12: 11 form within 240 s, 8 of them without the pilot
     // pushed sideways or turned (the others: a robot bumped the assembly while joining); seeds
     // 3 and 6 are two of the eight.
     for seed in [3, 6] {

@@ -114,8 +114,8 @@ move = { velocity = [0.03, 0.1], duration_s = 9.0 }
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-11-22: 11 of 11 runs on this machine, then \
             failed once in a clean-clone CI run: the last robot joining the 3-robot assembly by \
-            anchor did not couple within 50 s; session 5: 24 of 24 loopback runs, 8 of them \
-            with both cores loaded); the lockstep version fails for 2-3 of 12 seeds at 0-30 ms \
+            anchor did not couple within 50 s; session 5: 10 of 10 loopback runs, and 14 of 14 \
+            after the formation settling, 8 of them with both cores loaded); the lockstep version fails for 2-3 of 12 seeds at 0-30 ms \
             of latency"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.

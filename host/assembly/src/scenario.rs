@@ -24,7 +24,7 @@
 
 use crate::assign::RobotState;
 use crate::behaviour::{Trajectory, Wiggle};
-use crate::coordinator::{Coordinator, EventKind, Mode, Tick};
+use crate::coordinator::{Coordinator, EventKind, Mode, Role, Tick};
 use crate::geom::Pose2;
 use crate::pair::PairStatus;
 use crate::shape::{Shape, ShapeSpec};
@@ -905,6 +905,10 @@ impl ScenarioRunner {
                         step.label
                     ),
                 );
+                // This tick's tasks were the move's: they hold instead.
+                for task in &mut tick.tasks {
+                    task.role = Role::Hold;
+                }
             } else if self.done(t, start, &step, &tick) {
                 self.coordinator
                     .record(t, EventKind::StepFinished { index });
@@ -1132,15 +1136,20 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
                 },
             ]
         };
-        // Coupled in a line; the move starts; 1 s into it the front robot is 3 cm ahead of
-        // where its anchor could reach.
+        // Coupled in a line; the move starts (after the formation settles); then the front
+        // robot is 3 cm ahead of where its anchor could reach.
         let mut t = 0.0;
         while t < 2.0 {
             r.tick(t, &at(0.05, 0.0));
             t += 0.1;
         }
         assert_eq!(r.state(), &RunState::Running { index: 1 });
-        r.tick(t, &at(0.08, 0.0));
+        let tick = r.tick(t, &at(0.08, 0.0));
+        assert!(
+            tick.tasks.iter().all(|k| k.role == Role::Hold),
+            "{:?}",
+            tick.tasks
+        );
         match r.state() {
             RunState::Failed { index: 1, reason } => {
                 assert!(

@@ -350,7 +350,8 @@ pub struct Tick {
     pub maintain: Vec<MaintainPair>,
     /// Indices of active pairs (being aligned).
     pub active: Vec<usize>,
-    /// All pairs of the current plan are connected.
+    /// All pairs of the current plan are connected and have been for
+    /// [`CoordinatorConfig::form_settle_s`].
     pub complete: bool,
     /// Events of this tick.
     pub events: Vec<Event>,
@@ -560,7 +561,8 @@ impl Coordinator {
         &self.mode
     }
 
-    /// True when a plan exists and all its pairs are connected.
+    /// True when a plan exists and all its pairs are connected now ([`Tick::complete`] also
+    /// asks that they stayed so for [`CoordinatorConfig::form_settle_s`]).
     pub fn is_complete(&self) -> bool {
         self.plan.is_some()
             && self
