@@ -76,9 +76,9 @@ name = "line"
 form = { shape = "line", heading_deg = 0 }
 timeout_s = 40
 [[step]]
-move = { velocity = [0.03, 0.0], duration_s = 3.0 }
+move = { velocity = [0.05, 0.0], duration_s = 3.0 }
 [[step]]
-move = { velocity = [0.03, 0.1], duration_s = 9.0 }
+move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 "#;
     let r = run("assembly-line", scenario, fleet, 60.0, None).await;
     assert!(finished(&r), "state {:?}", r.state);
