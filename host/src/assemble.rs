@@ -107,6 +107,18 @@ pub fn slow_step_warnings(scenario: &AsmScenario, params: &FleetParams) -> Vec<S
         .collect()
 }
 
+/// Heading weight of the anchors' maintenance cost (THESIS 4.8; relative to its position
+/// weight W_c = 1000, see `MpcConfig::maintain_heading`) while a shape forms: keeps coupled
+/// joints straight while their robots align with others. Measured 2026-12-01 in lockstep
+/// (seeds 1–24 at 0 and 20 ms): the driving line passes 46 of 48 (32 with the hard
+/// constraints and their infeasible retries, the previous behaviour), the 2×2 mesh 48 of 48
+/// (41), the lost-robot line 21 of 24 at 30 ms (24); 0.006 gave 37 / 48 / 23, 0.012
+/// 41 / 46 / 19, 0.03 fewer (the joints too stiff to let a segment meet its partner).
+pub const MAINTAIN_HEADING_FORM: f64 = 0.008;
+/// Heading weight of the anchors' maintenance cost while assemblies move (a train must bend
+/// in a turn: ≈ 0.2 rad at a 0.3 m radius); the line passed the same from 1e-4 to 0.003.
+pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
+
 /// Gate settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GateConfig {
@@ -148,13 +160,14 @@ pub struct AssemblyController {
     seen: BTreeSet<RobotId>,
     /// Failed solves by reason.
     pub mpc_failure_reasons: BTreeMap<String, u64>,
-    /// Give coupled anchor pairs to the MPC as coupling constraints (THESIS 5.23–5.24).
-    /// With the simulator's coupled geometry the constrained QPs often come out primal
-    /// infeasible (measured: 456 of 456 solves in the gap run), which stalled coupled
-    /// robots; such ticks are solved again without the constraints (counted in
-    /// `constraint_retries`), followers keeping the shape through FollowLeader (5.25).
+    /// Give coupled anchor pairs to the MPC as hard coupling constraints (THESIS 5.23–5.24)
+    /// besides their soft maintenance cost (4.8). Off by default: a seated anchor's faces
+    /// touch, so the cutting planes (5.17–5.18), which ask for `constraint_margin` between
+    /// them, make the QPs primal infeasible (measured: 456 of 456 solves in the gap run, 143
+    /// of ≈ 150 ticks with pairs in the lockstep line). When on, such ticks are solved again
+    /// with the soft cost only (counted in `constraint_retries`).
     pub coupling_constraints: bool,
-    /// Ticks re-solved without coupling constraints.
+    /// Ticks re-solved without the hard coupling constraints.
     pub constraint_retries: u64,
     /// Extra seconds after the scenario ends before [`Controller::done`].
     pub settle: f64,
@@ -185,6 +198,8 @@ impl AssemblyController {
         let coordinator = Coordinator::new(g, cfg);
         let cfg = MpcConfig {
             geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),
+            hard_couplings: false,
+            maintain_heading: MAINTAIN_HEADING_FORM,
             ..MpcConfig::default()
         };
         let mpc = DistributedMpc::with_threads(cfg, 1)?;
@@ -201,7 +216,7 @@ impl AssemblyController {
             mpc_failures: 0,
             seen: BTreeSet::new(),
             mpc_failure_reasons: BTreeMap::new(),
-            coupling_constraints: true,
+            coupling_constraints: false,
             constraint_retries: 0,
             settle: 0.5,
             log_milestones: true,
@@ -497,7 +512,6 @@ impl Controller for AssemblyController {
         let pairs: Vec<CoupledPair> = tick
             .maintain
             .iter()
-            .filter(|_| self.coupling_constraints)
             .filter(|m| m.kind == PairType::AnchorOpening)
             .filter(|m| present.contains(&m.a) && present.contains(&m.b))
             .map(|m| CoupledPair {
@@ -521,16 +535,28 @@ impl Controller for AssemblyController {
                 direct.insert(task.robot, Twist::new(v, w));
             }
         }
+        // Joints held straight while forming, freer while an assembly moves (a train bends
+        // in turns).
+        let heading = if matches!(self.runner.coordinator().mode(), Mode::Form) {
+            MAINTAIN_HEADING_FORM
+        } else {
+            MAINTAIN_HEADING_MOVE
+        };
+        // Both constants are finite and ≥ 0: the setter cannot refuse them.
+        let _ = self.mpc.set_maintain_heading(heading);
+        self.mpc.set_hard_couplings(self.coupling_constraints);
         let mut result = self.mpc.tick(&inputs, &pairs);
-        // Workaround (see `coupling_constraints`): when the coupling-constrained QPs are
-        // infeasible, solve again without the constraints (FollowLeader keeps the shape).
-        if !pairs.is_empty()
+        // See `coupling_constraints`: when the hard-constrained QPs are infeasible, solve
+        // again with the soft maintenance cost only.
+        if self.coupling_constraints
+            && !pairs.is_empty()
             && result
                 .as_ref()
                 .is_ok_and(|o| o.robots.iter().any(|r| !r.status.is_solved()))
         {
             self.constraint_retries += 1;
-            result = self.mpc.tick(&inputs, &[]);
+            self.mpc.set_hard_couplings(false);
+            result = self.mpc.tick(&inputs, &pairs);
         }
         match result {
             Ok(o) => {

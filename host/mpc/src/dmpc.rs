@@ -53,6 +53,25 @@ impl DistributedMpc {
         &self.config
     }
 
+    /// Switches the hard coupling constraints ([`MpcConfig::hard_couplings`]) from the next
+    /// tick on.
+    pub fn set_hard_couplings(&mut self, hard: bool) {
+        self.config.hard_couplings = hard;
+    }
+
+    /// Sets the heading weight of the pairs' maintenance cost
+    /// ([`MpcConfig::maintain_heading`]) from the next tick on; it must be finite and ≥ 0.
+    pub fn set_maintain_heading(&mut self, w: f64) -> Result<(), MpcError> {
+        if !(w.is_finite() && w >= 0.0) {
+            return Err(MpcError::InvalidConfig {
+                field: "maintain_heading",
+                reason: format!("must be finite and ≥ 0 (got {w})"),
+            });
+        }
+        self.config.maintain_heading = w;
+        Ok(())
+    }
+
     /// Forgets a robot's plan and solver (e.g. after it was moved by hand).
     pub fn reset_robot(&mut self, id: RobotId) {
         self.memory.remove(&id);
@@ -312,7 +331,7 @@ impl DistributedMpc {
                         heading: cfg.maintain_heading,
                     });
                 }
-                if cfg.constraint_horizon > 0 {
+                if cfg.constraint_horizon > 0 && cfg.hard_couplings {
                     couplings.push(CouplingInstance {
                         role,
                         neighbour: nb,

@@ -333,6 +333,10 @@ impl Default for SolverTuning {
     }
 }
 
+fn default_true() -> bool {
+    true
+}
+
 /// Configuration of every robot's MPC.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MpcConfig {
@@ -355,6 +359,11 @@ pub struct MpcConfig {
     /// compatibility). Measured: 100/1 keeps coupled pairs inside their constraints in
     /// fast turns; 1/0.01 does not.
     pub w_consistency: [f64; 2],
+    /// Established pairs get the hard coupling constraints (THESIS 5.23–5.24, point in
+    /// polygon and cutting planes) on stages 1 … H_c; false: only the soft maintenance cost
+    /// W_c J_c (4.8). Default true.
+    #[serde(default = "default_true")]
+    pub hard_couplings: bool,
     /// Soft maintenance weight W_c of established pairs (THESIS 4.8) on stages 1 … H_c.
     pub w_maintain: f64,
     /// Heading weight of the maintenance cost relative to its position term.
@@ -388,6 +397,7 @@ impl Default for MpcConfig {
             w_effort: [1e-3, 1e-4],
             w_damping: [1e-2, 1e-4],
             w_consistency: [100.0, 1.0],
+            hard_couplings: true,
             w_maintain: 1.0e3,
             maintain_heading: 1e-4,
             constraint_margin: 1.0e-3,
