@@ -3,6 +3,7 @@
 //! task point onto its partner's point with an off-centre point controller. The coordinator
 //! alone must bring scattered robots into the planned shape, pass every pair through
 //! decoupled → head aligned → head inserted → connected, and re-plan when a robot vanishes.
+//! Direct commands (a lone robot's staged approach) are executed as given.
 
 use puzzlebot_assembly::coordinator::{Coordinator, Role, Tick};
 use puzzlebot_assembly::{EventKind, PairStatus, Pose2, RobotState, ShapeSpec};
@@ -60,6 +61,9 @@ fn advance(robots: &mut [RobotState], tick: &Tick) {
                 steer(&me, *own_point, target, 1.0, task.straight_only)
             }
             Role::Velocity { v, w } => (*v, if task.straight_only { 0.0 } else { *w }),
+            // Staged approaches: direct commands near the place, a point goal further out.
+            Role::Dock { v, w, .. } => (*v, *w),
+            Role::GoTo { goal, .. } => steer(&me, [0.02, 0.0], goal.xy(), 1.0, task.straight_only),
             _ => (0.0, 0.0),
         };
         cmd.insert(task.robot, c);

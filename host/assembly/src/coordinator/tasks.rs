@@ -187,10 +187,22 @@ impl Coordinator {
                         }
                     }
                     let home = self.grow.and_then(|seed| segments.get(&seed).copied());
+                    // An assembly joined at its anchor by a lone non-pilot holds still, as a
+                    // growing one does: the lone robot makes the staged anchor approach. Moved
+                    // by the MPC, a coupled segment bends its joints and drags its members
+                    // (lockstep, seeds 1-24: the 2×2 mesh 46 → 48 of 48 at 0/20 ms, the
+                    // lost-robot line 21 → 24 of 24 at 30 ms).
+                    let size = |r: RobotId| members[&segments[&r]].len();
+                    let lone_joins = p.kind == PairType::AnchorOpening
+                        && (size(p.a) == 1) != (size(p.b) == 1)
+                        && [p.a, p.b]
+                            .iter()
+                            .all(|&r| size(r) > 1 || self.kind_of(r) == RobotKind::NonPilot);
                     for me in [p.a, p.b] {
                         let seg = segments[&me];
-                        if home == Some(seg) {
-                            // Growing: the assembly holds still while a robot joins it.
+                        if home == Some(seg) || (lone_joins && members[&seg].len() > 1) {
+                            // Growing (or joined by a lone robot): the assembly holds still
+                            // while a robot joins it.
                             for &m in &members[&seg] {
                                 roles.insert(m, (Role::Hold, None));
                             }
@@ -207,6 +219,7 @@ impl Coordinator {
                         } else {
                             let other = if me == p.a { p.b } else { p.a };
                             let partner_waits = home == Some(segments[&other])
+                                || lone_joins
                                 || members[&segments[&other]]
                                     .iter()
                                     .all(|&m| self.kind_of(m) == RobotKind::Pilot);
