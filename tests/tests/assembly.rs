@@ -57,12 +57,10 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-11-22, session 5: 4 of 10 loopback runs, 5 of 6 \
-            after the formation settles 1 s before it counts as complete): the second pair to \
-            join bends the head's anchor joint past 0.35 rad (robot 2 turns to meet robot 3 \
-            with robot 1 hanging in front), one anchor leg pops, and straightening the joint \
-            under the line's pull releases it 1-2 s into the drive; the lockstep version \
-            fails the same way for 4 of 12 seeds without latency, 5 of 12 with 10-30 ms"]
+#[ignore = "flaky in real time (measured 2026-12-01: 10 of 10 loopback runs idle, 3 of 4 with \
+            both cores loaded; the failure: the two 2-robot segments joining each other never \
+            coupled and knocked a pair loose); the lockstep version passes 46 of 48 seeds at \
+            0 and 20 ms"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -112,11 +110,11 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-11-22: 11 of 11 runs on this machine, then \
-            failed once in a clean-clone CI run: the last robot joining the 3-robot assembly by \
-            anchor did not couple within 50 s; session 5: 10 of 10 loopback runs, and 14 of 14 \
-            after the formation settling, 8 of them with both cores loaded); the lockstep version fails for 2-3 of 12 seeds at 0-30 ms \
-            of latency"]
+#[ignore = "flaky in real time (measured 2026-12-01: 11 of 16 loopback runs, before that \
+            session's changes 24 of 24 and once a clean-clone CI failure: the last robot \
+            joining the 3-robot assembly by anchor did not couple within 50 s, or the host \
+            counted a pair connected that the simulator had 3 mm short of seated); the \
+            lockstep version passes 48 of 48 seeds at 0 and 20 ms"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -175,12 +173,10 @@ timeout_s = 25
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-11-22: session 4 11 of 11 then a clean-clone \
-            CI failure; session 5 8 of 10, then with the formation settling 6 of 6 idle and 6 of \
-            8 with both cores loaded): robot 4 is always declared lost and re-planned out, but \
-            the host counts a pair connected that the simulator has apart (a join stalled 1 mm \
-            short of its seat, the MPC's command below the wheels' dead-band, and pose noise \
-            passed the insertion test); the lockstep version passes 12 of 12 seeds"]
+#[ignore = "flaky in real time (measured 2026-12-01: 5 of 5 loopback runs idle, 4 of 4 with \
+            both cores loaded; earlier code versions passed 11 of 11 and then failed a \
+            clean-clone CI run, or 6 of 8 loaded: the host counted a pair connected that the \
+            simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms"]
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
