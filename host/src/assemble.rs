@@ -112,7 +112,8 @@ pub fn slow_step_warnings(scenario: &AsmScenario, params: &FleetParams) -> Vec<S
 /// joints straight while their robots align with others. Measured 2026-12-01 in lockstep
 /// (seeds 1–24 at 0 and 20 ms): the driving line passes 46 of 48 (32 with the hard
 /// constraints and their infeasible retries, the previous behaviour), the 2×2 mesh 48 of 48
-/// (41), the lost-robot line 21 of 24 at 30 ms (24); 0.006 gave 37 / 48 / 23, 0.012
+/// (41), the lost-robot line 21 of 24 at 30 ms (24; 24 again once an assembly holds while a
+/// lone robot joins it, see `Coordinator::tasks`); 0.006 gave 37 / 48 / 23, 0.012
 /// 41 / 46 / 19, 0.03 fewer (the joints too stiff to let a segment meet its partner).
 pub const MAINTAIN_HEADING_FORM: f64 = 0.008;
 /// Heading weight of the anchors' maintenance cost while assemblies move (a train must bend
