@@ -190,8 +190,8 @@ impl Coordinator {
                     // An assembly joined at its anchor by a lone non-pilot holds still, as a
                     // growing one does: the lone robot makes the staged anchor approach. Moved
                     // by the MPC, a coupled segment bends its joints and drags its members
-                    // (lockstep, seeds 1-24: the 2×2 mesh 46 → 48 of 48 at 0/20 ms, the
-                    // lost-robot line 21 → 24 of 24 at 30 ms).
+                    // (lockstep, seeds 1-24: the lost-robot line 21 → 24 of 24 at 30 ms, 22 → 24 at
+                    // 0 ms; the 2×2 mesh 23 → 24 of 24 at 40 ms).
                     let size = |r: RobotId| members[&segments[&r]].len();
                     let lone_joins = p.kind == PairType::AnchorOpening
                         && (size(p.a) == 1) != (size(p.b) == 1)
