@@ -634,12 +634,30 @@ pub struct AssemblyReport {
     pub final_poses: BTreeMap<RobotId, [f64; 3]>,
     /// Pairs coupled in the simulator's ground truth at the end (a, b).
     pub coupled_truth: Vec<(RobotId, RobotId)>,
+    /// Every coupling and decoupling in the simulator's ground truth, in order: what the
+    /// host's pair status changes (`events`) can be checked against.
+    pub coupling_truth: Vec<TruthCoupling>,
     /// MPC ticks with a failed solve.
     pub mpc_failures: u64,
     /// Robots that fell (simulator ground truth).
     pub fallen: Vec<RobotId>,
     /// Failed MPC solves by reason.
     pub mpc_failure_reasons: BTreeMap<String, u64>,
+}
+
+/// A coupling or decoupling in the simulator's ground truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TruthCoupling {
+    /// Simulator time (s since the simulated fleet started).
+    pub t_sim: f64,
+    /// Coupled (true) or came apart (false).
+    pub coupled: bool,
+    /// Anchor or knob.
+    pub kind: puzzlebot_sim::LinkKind,
+    /// Robot with the anchor / knob.
+    pub a: RobotId,
+    /// Robot with the opening / hole.
+    pub b: RobotId,
 }
 
 /// Optional hook called every 100 ms of a simulated run with the harness and the time (s):
@@ -755,8 +773,27 @@ fn report_of(
             }
         }
     }
+    let coupling_truth = truth
+        .events
+        .iter()
+        .filter_map(|e| {
+            let (coupled, kind, a, b) = match e.kind {
+                puzzlebot_sim::EventKind::Coupled { kind, a, b } => (true, kind, a, b),
+                puzzlebot_sim::EventKind::Decoupled { kind, a, b } => (false, kind, a, b),
+                _ => return None,
+            };
+            Some(TruthCoupling {
+                t_sim: e.t_us as f64 * 1e-6,
+                coupled,
+                kind,
+                a,
+                b,
+            })
+        })
+        .collect();
     AssemblyReport {
         folder: folder.dir().to_path_buf(),
+        coupling_truth,
         state: ctl.state().clone(),
         events: ctl.events.clone(),
         gate_stops: ctl.gate_stops.clone(),

@@ -134,8 +134,9 @@ timeout_s = 50
     // Two anchor rows and one knob between them (THESIS 5.2.2).
     assert!(
         r.coupled_truth.len() >= 6,
-        "couplings {:?}",
-        r.coupled_truth
+        "couplings {:?}; in the simulator over time: {:?}",
+        r.coupled_truth,
+        r.coupling_truth
     );
 }
 
@@ -165,6 +166,15 @@ timeout_s = 25
     let r = run("assembly-release", scenario, fleet, 58.0, None).await;
     assert!(finished(&r), "state {:?}", r.state);
     assert!(!coupled(&r, 1, 2), "released");
+    // The report records the release from the simulator's ground truth, after the pair
+    // had been connected on the host.
+    assert!(
+        r.coupling_truth
+            .iter()
+            .any(|c| !c.coupled && (c.a, c.b) == (2, 1)),
+        "the simulator's release is in the report: {:?}",
+        r.coupling_truth
+    );
     for (id, goal) in [(1, [-0.15, 0.15]), (2, [0.25, -0.1])] {
         let p = r.final_poses[&id];
         let d = (p[0] - goal[0]).hypot(p[1] - goal[1]);
