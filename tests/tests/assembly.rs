@@ -110,11 +110,11 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01: 11 of 16 loopback runs, before that \
-            session's changes 24 of 24 and once a clean-clone CI failure: the last robot \
-            joining the 3-robot assembly by anchor did not couple within 50 s, or the host \
-            counted a pair connected that the simulator had 3 mm short of seated); the \
-            lockstep version passes 48 of 48 seeds at 0 and 20 ms"]
+#[ignore = "flaky in real time (measured 2026-12-01: 10 of 10 loopback runs with a head seen \
+            seated in two updates in a row before it counts as inserted, 11 of 16 without, \
+            when the host counted a pair connected that the simulator never coupled or the \
+            last anchor join timed out; earlier 24 of 24, and once a clean-clone CI failure); \
+            the lockstep version passes 47 of 48 seeds at 0 and 20 ms"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[

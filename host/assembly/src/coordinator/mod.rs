@@ -1116,12 +1116,29 @@ mod tests {
         }
         // Everyone on the goal: pairs pass to inserted, then connected after confirmation.
         let goal = at_goals(&c, &kinds);
-        let t1 = c.tick(1.0, &goal);
-        assert!(!t1.complete);
-        let t2 = c.tick(1.5, &goal);
-        assert!(!t2.complete, "all connected, not yet settled");
-        let t2 = c.tick(2.5, &goal);
+        // Ticks at 10 Hz until complete: complete only once every pair has been connected for
+        // form_settle_s.
+        let mut all_connected = None;
+        let mut t2 = c.tick(1.0, &goal);
+        assert!(!t2.complete);
+        for k in 1..=40 {
+            let t = 1.0 + 0.1 * f64::from(k);
+            t2 = c.tick(t, &goal);
+            if t2.maintain.len() == 3 && all_connected.is_none() {
+                all_connected = Some(t);
+            }
+            if t2.complete {
+                break;
+            }
+            assert!(!t2.complete, "all connected, not yet settled");
+        }
         assert!(t2.complete, "connected for form_settle_s");
+        let since = all_connected.expect("every pair connected");
+        let settled = t2.t - since;
+        assert!(
+            (c.cfg.form_settle_s - 1e-9..c.cfg.form_settle_s + 0.15).contains(&settled),
+            "complete {settled:.2} s after every pair connected"
+        );
         assert!(t2
             .events
             .iter()
@@ -1178,6 +1195,7 @@ mod tests {
             })
             .collect();
         c.tick(0.1, &mixed);
+        c.tick(0.2, &mixed);
         let tick = c.tick(1.0, &mixed);
         // Next: the side (knob) pair, not the other row's anchor pair.
         assert_eq!(tick.active.len(), 1, "{:?}", tick.active);
@@ -1322,6 +1340,7 @@ mod tests {
         c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
         let goal = at_goals(&c, &kinds);
         c.tick(0.0, &goal);
+        c.tick(0.1, &goal);
         assert!(c.tick(0.5, &goal).complete);
         c.set_mode(0.5, Mode::Velocity { v: 0.02, w: 0.0 });
         let tick = c.tick(0.6, &goal);
