@@ -58,9 +58,10 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-12-01: 10 of 10 loopback runs idle, 3 of 4 with \
-            both cores loaded; the failure: the two 2-robot segments joining each other never \
-            coupled and knocked a pair loose); the lockstep version passes 46 of 48 seeds at \
-            0 and 20 ms"]
+            both cores loaded, the failure: the two 2-robot segments joining each other never \
+            coupled and knocked a pair loose; then with a head seen seated in two updates in a \
+            row 5 of 6, once a pair came apart in the turn); the lockstep version passes 43 of \
+            48 seeds at 0 and 20 ms"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -110,7 +111,7 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01: 10 of 10 loopback runs with a head seen \
+#[ignore = "flaky in real time (measured 2026-12-01: 14 of 14 loopback runs with a head seen \
             seated in two updates in a row before it counts as inserted, 11 of 16 without, \
             when the host counted a pair connected that the simulator never coupled or the \
             last anchor join timed out; earlier 24 of 24, and once a clean-clone CI failure); \
@@ -184,7 +185,7 @@ timeout_s = 25
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-12-01: 5 of 5 loopback runs idle, 4 of 4 with \
-            both cores loaded; earlier code versions passed 11 of 11 and then failed a \
+            both cores loaded, then 6 of 6 with a head seen seated in two updates in a row; earlier code versions passed 11 of 11 and then failed a \
             clean-clone CI run, or 6 of 8 loaded: the host counted a pair connected that the \
             simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms"]
 async fn a_robot_lost_mid_formation_is_replanned_without() {
