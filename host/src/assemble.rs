@@ -964,27 +964,25 @@ pub fn ensure_finished(r: &AssemblyReport) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    fn scenario(text: &str) -> AsmScenario {
-        let p = FleetParams::default();
-        AsmScenario::from_toml_str(Path::new("s.toml"), text, &p.non_pilot.geometry)
-            .expect("scenario")
-    }
-
     #[test]
     fn a_velocity_step_below_the_wheels_dead_band_is_warned_about_by_step_and_line() {
         let p = FleetParams::default();
         let slowest = slowest_steady_speed(&p);
         // 20 RPM on 17-19 mm wheels: a few centimetres per second.
         assert!((0.02..0.06).contains(&slowest), "slowest {slowest}");
-        let s = scenario(&format!(
-            "[[step]]\nmove = {{ velocity = [{}, 0.0], duration_s = 2 }}\n\
+        let s = parse_scenario(
+            "s.toml",
+            &format!(
+                "[[step]]\nmove = {{ velocity = [{}, 0.0], duration_s = 2 }}\n\
              [[step]]\nlabel = \"creep\"\nmove = {{ velocity = [{}, 0.1], duration_s = 2 }}\n\
              [[step]]\nmove = {{ velocity = [0.0, 0.5], duration_s = 2 }}\n\
              [[step]]\nmove = {{ velocity = [{}, 0.0], duration_s = 2 }}\n",
-            slowest * 1.2,
-            -slowest * 0.8,
-            slowest * 0.5
-        ));
+                slowest * 1.2,
+                -slowest * 0.8,
+                slowest * 0.5
+            ),
+        )
+        .expect("scenario");
         let w = slow_step_warnings(&s, &p);
         assert_eq!(w.len(), 2, "{w:?}");
         assert!(w[0].starts_with("step 2 'creep' (line 3)"), "{}", w[0]);

@@ -23,7 +23,7 @@
 //! seeds 1-24 at 0 and 20 ms (with the anchors' soft maintenance cost in place of the
 //! infeasible hard constraints, see `MAINTAIN_HEADING_FORM`): the line (driven at 0.05 m/s:
 //! 0.03 m/s is below the wheels' dead-band, see `slow_step_warnings`) passes 43 of 48, the
-//! mesh 47 of 48, the lost-robot line 24 of 24 at 30 ms (with an assembly holding still while
+//! mesh 48 of 48, the lost-robot line 24 of 24 at 30 ms (with an assembly holding still while
 //! a lone robot joins it at its anchor, and a head seen seated in two updates in a row before
 //! it counts as inserted); the seeds used here pass. The
 //! real-time loopback versions are ignored (issue 7; their notes say how often they pass).

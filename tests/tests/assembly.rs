@@ -115,7 +115,7 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
             seated in two updates in a row before it counts as inserted, 11 of 16 without, \
             when the host counted a pair connected that the simulator never coupled or the \
             last anchor join timed out; earlier 24 of 24, and once a clean-clone CI failure); \
-            the lockstep version passes 47 of 48 seeds at 0 and 20 ms"]
+            the lockstep version passes 48 of 48 seeds at 0 and 20 ms"]
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[

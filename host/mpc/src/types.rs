@@ -361,7 +361,8 @@ pub struct MpcConfig {
     pub w_consistency: [f64; 2],
     /// Established pairs get the hard coupling constraints (THESIS 5.23–5.24, point in
     /// polygon and cutting planes) on stages 1 … H_c; false: only the soft maintenance cost
-    /// W_c J_c (4.8). Default true.
+    /// W_c J_c (4.8), and no [`MpcConfig::w_consistency`] (that damping exists to keep the
+    /// neighbours' hard constraints trustworthy). Default true.
     #[serde(default = "default_true")]
     pub hard_couplings: bool,
     /// Soft maintenance weight W_c of established pairs (THESIS 4.8) on stages 1 … H_c.

@@ -1127,10 +1127,12 @@ mod tests {
             if t2.maintain.len() == 3 && all_connected.is_none() {
                 all_connected = Some(t);
             }
+            if all_connected == Some(t) {
+                assert!(!t2.complete, "all connected, not yet settled");
+            }
             if t2.complete {
                 break;
             }
-            assert!(!t2.complete, "all connected, not yet settled");
         }
         assert!(t2.complete, "connected for form_settle_s");
         let since = all_connected.expect("every pair connected");

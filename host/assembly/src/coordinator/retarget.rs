@@ -66,21 +66,10 @@ impl Coordinator {
                 continue;
             }
             let tol = self.cfg.tolerances;
-            // A pair seen seated itself stays (it may need more than one update to count as
-            // inserted, `SEATED_UPDATES`).
-            let own = tp.pair;
-            if let (Some(ka), Some(kb)) = (self.robots.get(&own.a), self.robots.get(&own.b)) {
-                let m = measure(
-                    &ka.pose,
-                    own.point_a,
-                    &kb.pose,
-                    own.point_b,
-                    own.relative_yaw,
-                    &self.geometry,
-                );
-                if is_inserted(own.kind, &m, &tol, &self.geometry, 1.0) {
-                    continue;
-                }
+            // A pair seen seated itself stays: it needs `SEATED_UPDATES` updates to count as
+            // inserted, and re-targeting would start it afresh.
+            if tp.seated_updates > 0 {
+                continue;
             }
             let seated = self.side_alternatives(i).into_iter().find(|alt| {
                 let taken = self.pairs.iter().any(|o| {
