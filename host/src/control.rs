@@ -543,7 +543,7 @@ impl ControlLoop {
                         let measured = if self.options.stabilise && controller.stabilise(rv.id) {
                             rv.velocity
                         } else {
-                            r.stab.reset();
+                            r.stab.forget_feedback();
                             None
                         };
                         let wt = r.stab.step(w, measured, dt);

@@ -306,7 +306,7 @@ impl Lockstep {
                             let measured = if self.options.stabilise && ctl.stabilise(rv.id) {
                                 rv.velocity
                             } else {
-                                stab.reset();
+                                stab.forget_feedback();
                                 None
                             };
                             let wt = stab.step(w, measured, dt);

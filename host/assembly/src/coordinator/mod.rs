@@ -12,7 +12,7 @@ mod retarget;
 mod tasks;
 
 pub use motion::VELOCITY_RAMP_S;
-use motion::{arc, ramped};
+use motion::{ramp_pose, ramp_velocity, MotionStart};
 
 use crate::assign::{
     assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
@@ -474,9 +474,9 @@ pub struct Coordinator {
     complete_reported: bool,
     /// Since when every planned pair has been connected (s).
     complete_since: Option<f64>,
-    /// Velocity mode: each segment leader's pose and the time when its motion started (the
-    /// origin of the segment's virtual rigid-body reference).
-    motion_start: BTreeMap<RobotId, (Pose2, f64)>,
+    /// Velocity mode: each segment leader's reference origin (pose, time, initial (v, ω)):
+    /// the origin of the segment's virtual rigid-body reference.
+    motion_start: BTreeMap<RobotId, MotionStart>,
     /// Velocity mode: each member's measured pose in its leader's frame when the motion
     /// started (the assembly as it is: anchors bend, so the planned offsets would strain it).
     motion_offsets: BTreeMap<RobotId, Pose2>,
@@ -832,9 +832,26 @@ impl Coordinator {
             Mode::Decouple { .. } => "decouple",
             Mode::Disperse { .. } => "disperse",
         };
+        match (&self.mode, &mode) {
+            // A velocity behaviour right after another: each reference goes on from where
+            // the previous one is now, at its (v, ω), so the assembly does not stop between
+            // the steps (and the members keep their offsets).
+            (Mode::Velocity { v, w }, Mode::Velocity { .. }) => {
+                let to = [*v, *w];
+                for m in self.motion_start.values_mut() {
+                    *m = MotionStart {
+                        pose: ramp_pose(m, to, t - m.t0),
+                        t0: t,
+                        from: ramp_velocity(m, to, t - m.t0),
+                    };
+                }
+            }
+            _ => {
+                self.motion_start.clear();
+                self.motion_offsets.clear();
+            }
+        }
         self.mode = mode;
-        self.motion_start.clear();
-        self.motion_offsets.clear();
         self.push(t, EventKind::BehaviourStarted { name: name.into() });
     }
 
@@ -968,7 +985,11 @@ impl Coordinator {
                     if let std::collections::btree_map::Entry::Vacant(e) =
                         self.motion_start.entry(leader)
                     {
-                        e.insert((pose, t));
+                        e.insert(MotionStart {
+                            pose,
+                            t0: t,
+                            from: [0.0, 0.0],
+                        });
                         for &id in m {
                             if let Some(k) = self.robots.get(&id) {
                                 self.motion_offsets.insert(id, pose.relative(&k.pose));
@@ -1413,5 +1434,49 @@ mod tests {
             .any(|e| matches!(e.kind, EventKind::PairReleased { .. })));
         let segs: BTreeSet<_> = tick.tasks.iter().map(|t| t.segment).collect();
         assert_eq!(segs.len(), 2);
+    }
+
+    #[test]
+    fn a_velocity_behaviour_after_another_goes_on_without_stopping() {
+        let mut c = coordinator();
+        c.cfg.form_settle_s = 0.0;
+        let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        let goal = at_goals(&c, &kinds);
+        c.tick(0.0, &goal);
+        c.tick(0.1, &goal);
+        assert!(c.tick(0.5, &goal).complete);
+        let reference = |tick: &Tick| match role_of(tick, 1) {
+            Role::Track { reference } => reference.clone(),
+            other => panic!("{other:?}"),
+        };
+        let dt = c.cfg.dt;
+        let l = goal.iter().find(|r| r.id == 1).unwrap().pose;
+        c.set_mode(0.5, Mode::Velocity { v: 0.04, w: 0.0 });
+        c.tick(0.5, &goal);
+        // After the ramp (2 s) the reference runs at 0.04 m/s: 0.04 · (t − 0.5 − 1) from l.
+        let r = reference(&c.tick(4.5, &goal));
+        assert!((r[0].x - (l.x + 0.04 * 3.0)).abs() < 1e-9, "{:?}", r[0]);
+        // The next velocity behaviour starts where that reference is, at its speed: the
+        // first step of the new reference is a full 0.04 · dt, and it turns gradually.
+        c.set_mode(4.5, Mode::Velocity { v: 0.04, w: 0.2 });
+        let r = reference(&c.tick(4.5, &goal));
+        assert!((r[0].x - (l.x + 0.12)).abs() < 1e-9, "{:?}", r[0]);
+        let step = (r[1].x - r[0].x).hypot(r[1].y - r[0].y);
+        assert!((step - 0.04 * dt).abs() < 1e-6, "step {step}");
+        assert!(r[1].yaw.abs() < 0.2 * dt, "ω ramps up: {:?}", r[1]);
+        let r = reference(&c.tick(4.5 + VELOCITY_RAMP_S + 1.0, &goal));
+        let turn = wrap_angle(r[1].yaw - r[0].yaw);
+        assert!(
+            (turn - 0.2 * dt).abs() < 1e-6,
+            "full ω after the ramp: {turn}"
+        );
+        // After a hold, a velocity behaviour starts from rest again.
+        c.set_mode(8.0, Mode::Hold);
+        c.set_mode(8.0, Mode::Velocity { v: 0.04, w: 0.0 });
+        let r = reference(&c.tick(8.0, &goal));
+        let step = (r[1].x - r[0].x).hypot(r[1].y - r[0].y);
+        assert!(step < 0.04 * dt * 0.1, "from rest: step {step}");
     }
 }

@@ -5,20 +5,23 @@ use super::*;
 
 /// Ramp of a velocity behaviour's reference (s): it accelerates uniformly over this time, so
 /// every member of an assembly starts together (a step left the slowest behind, straining
-/// and popping anchors).
+/// and popping anchors). A velocity behaviour that follows another one directly ramps from
+/// the previous (v, ω) instead of from rest, so chained moves do not stop in between.
 pub const VELOCITY_RAMP_S: f64 = 2.0;
 
-/// Time along the unramped reference reached after `t` s of a reference that accelerates
-/// uniformly for [`VELOCITY_RAMP_S`].
-pub(super) fn ramped(t: f64) -> f64 {
-    let r = VELOCITY_RAMP_S;
-    if t <= 0.0 {
-        0.0
-    } else if t < r {
-        t * t / (2.0 * r)
-    } else {
-        t - r / 2.0
-    }
+/// Integration step of the ramp's reference (s).
+const RAMP_STEP_S: f64 = 0.005;
+
+/// Where a velocity behaviour's reference starts: the segment leader's pose, the time, and
+/// the (v, ω) it ramps from (rest, or the previous velocity behaviour's command).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct MotionStart {
+    /// Origin of the reference.
+    pub pose: Pose2,
+    /// Time of the origin (s).
+    pub t0: f64,
+    /// (v, ω) at the origin.
+    pub from: [f64; 2],
 }
 
 /// Pose after moving from `start` for `t` s at constant (v, ω) (unicycle arc, THESIS (2.1)).
@@ -31,6 +34,38 @@ pub(super) fn arc(start: &Pose2, v: f64, w: f64, t: f64) -> Pose2 {
         (r * (w * t).sin(), r * (1.0 - (w * t).cos()))
     };
     start.compose(&Pose2::new(dx, dy, w * t))
+}
+
+/// (v, ω) of the reference `t` s after `m`'s origin (see [`ramp_pose`]).
+pub(super) fn ramp_velocity(m: &MotionStart, to: [f64; 2], t: f64) -> [f64; 2] {
+    let s = (t / VELOCITY_RAMP_S).clamp(0.0, 1.0);
+    [
+        m.from[0] + (to[0] - m.from[0]) * s,
+        m.from[1] + (to[1] - m.from[1]) * s,
+    ]
+}
+
+/// Pose `t` s after `m`'s origin of a reference whose (v, ω) goes linearly from `m.from` to
+/// `to` over [`VELOCITY_RAMP_S`] and stays at `to` (unicycle (2.1); the ramp is integrated
+/// with the midpoint rule, the rest is an exact arc).
+pub(super) fn ramp_pose(m: &MotionStart, to: [f64; 2], t: f64) -> Pose2 {
+    let r = VELOCITY_RAMP_S;
+    let t = t.max(0.0);
+    let in_ramp = t.min(r);
+    let n = (in_ramp / RAMP_STEP_S).ceil().max(1.0) as usize;
+    let h = in_ramp / n as f64;
+    let (mut x, mut y, mut th) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let s = (i as f64 + 0.5) * h / r;
+        let v = m.from[0] + (to[0] - m.from[0]) * s;
+        let w = m.from[1] + (to[1] - m.from[1]) * s;
+        let mid = th + 0.5 * h * w;
+        x += h * v * mid.cos();
+        y += h * v * mid.sin();
+        th += h * w;
+    }
+    let end = m.pose.compose(&Pose2::new(x, y, th));
+    arc(&end, to[0], to[1], t - in_ramp)
 }
 
 impl Coordinator {

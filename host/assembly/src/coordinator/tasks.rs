@@ -264,11 +264,9 @@ impl Coordinator {
                     // The commanded (v, ω) integrated from where the leader was when the
                     // motion started: a reference that does not drift with tracking errors.
                     let role = match self.motion_start.get(&leader) {
-                        Some((start, t0)) => Role::Track {
+                        Some(m) => Role::Track {
                             reference: (0..=self.cfg.horizon_steps)
-                                .map(|k| {
-                                    arc(start, *v, *w, ramped(t - t0 + k as f64 * self.cfg.dt))
-                                })
+                                .map(|k| ramp_pose(m, [*v, *w], t - m.t0 + k as f64 * self.cfg.dt))
                                 .collect(),
                         },
                         None => Role::Velocity { v: *v, w: *w },
