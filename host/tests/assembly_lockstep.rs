@@ -429,7 +429,12 @@ move = { velocity = [0.05, 0.0], duration_s = 3.0 }
 move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 "#,
     );
-    let o = run(&f, &mut ctl, asm_events, 60.0, |_, _| {});
+    let mut head = Vec::new();
+    let o = run(&f, &mut ctl, asm_events, 60.0, |w, t| {
+        if let Some(r) = w.ground_truth().robot(1) {
+            head.push((t, r.pose));
+        }
+    });
     assert!(finished(&ctl), "state {:?}", ctl.state());
     let formed = ctl
         .events
@@ -437,6 +442,11 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
         .find(|e| matches!(e.kind, EventKind::FormationComplete))
         .expect("formation complete");
     assert!(formed.t < 40.0);
+    let at_form = head
+        .iter()
+        .find(|(t, _)| *t >= formed.t)
+        .map(|(_, p)| *p)
+        .expect("head pose when the line formed");
     for (a, b) in [(1, 2), (2, 3), (3, 4)] {
         assert!(
             o.truth.are_coupled(a, b),
@@ -447,9 +457,11 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
     let yaws: Vec<f64> = (1..=4).map(|i| pose(i).yaw).collect();
     println!("final yaws {yaws:?}, robot 1 at {:?}", pose(1));
     // The line drives like a train (a rigid line cannot turn: its rear would have to move
-    // sideways): the head turned most of the commanded 0.9 rad, and every robot follows its
+    // sideways): from where the line formed, the head turned most of the commanded 0.73 rad
+    // (0.1667 rad/s for 5.4 s, ω ramped up over the first 2 s), and every robot follows its
     // predecessor round the curve, lagging it by less than the anchor's yaw range.
-    assert!(yaws[0] > 0.6, "the head turned: {yaws:?}");
+    let turned = puzzlebot_assembly::geom::wrap_angle(yaws[0] - at_form.yaw);
+    assert!(turned > 0.6, "the head turned {turned:.2} rad: {yaws:?}");
     for k in 1..4 {
         let lag = yaws[k - 1] - yaws[k];
         assert!(
@@ -458,7 +470,14 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
             k + 1
         );
     }
-    assert!(pose(1).x > 0.15, "the line drove forward: {:?}", pose(1));
+    // It drove 3 s straight and then round the arc: well ahead of where it formed.
+    let (sin, cos) = at_form.yaw.sin_cos();
+    let ahead = (pose(1).x - at_form.x) * cos + (pose(1).y - at_form.y) * sin;
+    assert!(
+        ahead > 0.25,
+        "the line drove forward {ahead:.3} m from {at_form:?} to {:?}",
+        pose(1)
+    );
     // Nothing came apart on the way: no decoupling in the ground truth once the line had
     // formed (a pair that pops while forming is aligned and coupled again, Algorithm 8).
     assert!(

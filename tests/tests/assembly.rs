@@ -45,6 +45,17 @@ async fn run(
     r
 }
 
+/// Robot `id`'s ground-truth pose at the first tick at or after `t` (s), from the run
+/// folder's `telemetry.jsonl`.
+fn truth_at(r: &AssemblyReport, id: RobotId, t: f64) -> [f64; 3] {
+    let text = std::fs::read_to_string(r.folder.join("telemetry.jsonl")).expect("telemetry");
+    text.lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("telemetry line"))
+        .filter(|v| v["robot"] == id && v["t"].as_f64().is_some_and(|s| s >= t))
+        .find_map(|v| serde_json::from_value::<[f64; 3]>(v["truth"].clone()).ok())
+        .expect("a ground-truth pose after t")
+}
+
 fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
     let mut s = String::from("seed = 3\n");
     for (id, kind, p) in poses {
@@ -57,11 +68,11 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01: 10 of 10 loopback runs idle, 3 of 4 with \
-            both cores loaded, the failure: the two 2-robot segments joining each other never \
-            coupled and knocked a pair loose; then with a head seen seated in two updates in a \
-            row 5 of 6, once a pair came apart in the turn); the lockstep version passes 43 of \
-            48 seeds at 0 and 20 ms"]
+#[ignore = "flaky in real time (measured 2026-12-01 with the current code: 12 of 13 loopback \
+            runs, 3 of them with both cores loaded; the failure: in the join of two 2-robot \
+            segments the aligning leader turned on the spot with a robot at its front, popped \
+            that anchor, and the re-approach timed out); the lockstep version passes 47 of 48 \
+            seeds at 0 and 20 ms"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -94,10 +105,16 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
         );
     }
     // The line drives like a train round the curve (a rigid line cannot turn: its rear
-    // would have to move sideways): the head turned most of the commanded 0.9 rad, every
+    // would have to move sideways): from where the line formed, the head turned most of the
+    // commanded 0.73 rad (0.1667 rad/s for 5.4 s, ω ramped up over the first 2 s), every
     // robot lags its predecessor by less than the anchor's yaw range.
+    let at_form = truth_at(&r, 1, formed.t);
     let yaw: Vec<f64> = (1..=4).map(|i| r.final_poses[&i][2]).collect();
-    assert!(yaw[0] > 0.5, "the head turned: {yaw:?}");
+    let turned = puzzlebot_host::drive::wrap_angle(yaw[0] - at_form[2]);
+    assert!(
+        turned > 0.5,
+        "the head turned {turned:.2} rad from {at_form:?}: {yaw:?}"
+    );
     for k in 1..4 {
         let lag = yaw[k - 1] - yaw[k];
         assert!(
@@ -106,16 +123,20 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
             k + 1
         );
     }
-    let x1 = r.final_poses[&1][0];
-    assert!(x1 > 0.15, "line drove forward: x1 = {x1}");
+    let end = r.final_poses[&1];
+    let (sin, cos) = at_form[2].sin_cos();
+    let ahead = (end[0] - at_form[0]) * cos + (end[1] - at_form[1]) * sin;
+    assert!(
+        ahead > 0.15,
+        "the line drove forward {ahead:.3} m from {at_form:?} to {end:?}"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01: 14 of 14 loopback runs with a head seen \
-            seated in two updates in a row before it counts as inserted, 11 of 16 without, \
-            when the host counted a pair connected that the simulator never coupled or the \
-            last anchor join timed out; earlier 24 of 24, and once a clean-clone CI failure); \
-            the lockstep version passes 48 of 48 seeds at 0 and 20 ms"]
+// Real time over loopback, measured 2026-12-01 with the current code: 14 of 14 runs (11 idle,
+// 3 with both cores loaded by busy loops); ignored until then (earlier versions: 11 of 16
+// when the host could count a pair connected that the simulator never coupled, then 14 of
+// 14); the lockstep version passes 48 of 48 seeds at 0 and 20 ms.
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -184,10 +205,10 @@ timeout_s = 25
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01: 5 of 5 loopback runs idle, 4 of 4 with \
-            both cores loaded, then 6 of 6 with a head seen seated in two updates in a row; earlier code versions passed 11 of 11 and then failed a \
-            clean-clone CI run, or 6 of 8 loaded: the host counted a pair connected that the \
-            simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms"]
+// Real time over loopback, measured 2026-12-01 with the current code: 14 of 14 runs (11 idle,
+// 3 with both cores loaded); ignored until then (earlier versions passed 11 of 11 and then
+// failed a clean-clone CI run, or 6 of 8 loaded, when the host counted a pair connected
+// that the simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms.
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
