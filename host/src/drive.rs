@@ -14,7 +14,8 @@
 //! * THESIS 3.5.1, 4.3.4: the feasible v–ω set is a butterfly of two kites with the
 //!   corner points A = (a_v, a_ω) and B = (b_v, 0) ([`Butterfly`]).
 //! * THESIS 4.4.3, 5.2.1: a 30 Hz stabiliser estimates the instant (v, ω) from poses over
-//!   a short window and corrects the command ([`Stabiliser`]).
+//!   a short window and corrects the command ([`Stabiliser`]); commands too small for the
+//!   wheels' dead-band M_min are dithered so that their mean motion is still made (ours).
 
 use puzzlebot_params::{drive::Drive, geometry::Geometry, RobotParams};
 use serde::{Deserialize, Serialize};
@@ -471,7 +472,8 @@ pub struct Stabiliser {
     pub gains: StabiliserGains,
     integral: Twist,
     /// Motion the wheels' dead-band has held back so far (m, rad): added to the next
-    /// commands until a wheel command at M_min releases it (see [`Stabiliser::step`]).
+    /// commands until a wheel command at M_min releases it (the dither of
+    /// [`Stabiliser::step`]).
     withheld: Twist,
 }
 

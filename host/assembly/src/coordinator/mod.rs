@@ -1353,9 +1353,8 @@ mod tests {
         );
     }
 
-    #[test]
-    fn assembly_moves_with_one_leader_and_decouples() {
-        // Formation completes as soon as the pair connects (no settling), so the move starts.
+    /// Two robots that formed a line by t = 0.5 s (no settling), standing at their goals.
+    fn formed_pair() -> (Coordinator, Vec<RobotState>) {
         let mut c = coordinator();
         c.cfg.form_settle_s = 0.0;
         let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
@@ -1365,6 +1364,13 @@ mod tests {
         c.tick(0.0, &goal);
         c.tick(0.1, &goal);
         assert!(c.tick(0.5, &goal).complete);
+        (c, goal)
+    }
+
+    #[test]
+    fn assembly_moves_with_one_leader_and_decouples() {
+        // Formation completes as soon as the pair connects (no settling), so the move starts.
+        let (mut c, goal) = formed_pair();
         c.set_mode(0.5, Mode::Velocity { v: 0.02, w: 0.0 });
         let tick = c.tick(0.6, &goal);
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
@@ -1438,15 +1444,7 @@ mod tests {
 
     #[test]
     fn a_velocity_behaviour_after_another_goes_on_without_stopping() {
-        let mut c = coordinator();
-        c.cfg.form_settle_s = 0.0;
-        let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
-        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
-        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
-        let goal = at_goals(&c, &kinds);
-        c.tick(0.0, &goal);
-        c.tick(0.1, &goal);
-        assert!(c.tick(0.5, &goal).complete);
+        let (mut c, goal) = formed_pair();
         let reference = |tick: &Tick| match role_of(tick, 1) {
             Role::Track { reference } => reference.clone(),
             other => panic!("{other:?}"),
