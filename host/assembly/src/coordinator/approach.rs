@@ -6,7 +6,7 @@ use super::*;
 
 /// Centre distance a robot driving to the start of an approach keeps from every other robot
 /// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
-const ROUTE_CLEARANCE: f64 = 0.075;
+pub(super) const ROUTE_CLEARANCE: f64 = 0.075;
 /// Smallest centre distance of the start of an approach to another robot (m): beside an
 /// assembly's side (50 mm bodies, 6 mm off), not closer.
 const APPROACH_GAP: f64 = 0.05;

@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// Half-width of an anchor approach's corridor that another robot's centre blocks (m): half a
+/// body and 10 mm; robots beside the axis (a mesh's other row, 50 mm off) do not block it.
+const AXIS_BLOCK_HALF_WIDTH: f64 = 0.035;
+
 impl Coordinator {
     /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
     /// segments so that each segment has one leader, 5.5.9).
@@ -83,6 +87,13 @@ impl Coordinator {
             if !drivable.contains(&sa) && !drivable.contains(&sb) {
                 continue;
             }
+            // A lone robot cannot make its staged anchor approach through a robot standing on
+            // the approach axis (it would push it along, THESIS 3.3.2's conflict): another
+            // pair goes first (after a popped anchor, the robot that stood coupled in front
+            // sits exactly there).
+            if tp.status == PairStatus::Decoupled && self.approach_blocked(i, segments) {
+                continue;
+            }
             // Re-checked against the pairs chosen so far; a pair not startable at the start of
             // the tick is not searched again.
             if tp.status == PairStatus::Decoupled
@@ -101,6 +112,54 @@ impl Coordinator {
             }
         }
         active
+    }
+
+    /// Whether anchor pair `i` would be joined by a lone non-pilot's staged approach (its
+    /// partner's side holds: an assembly, or pilots alone) while another robot stands on
+    /// the approach axis (centre within [`AXIS_BLOCK_HALF_WIDTH`] of it) nearer to the final
+    /// place than the stand-off plus the route clearance: the stand-off would move out past
+    /// that robot and the approach run through it.
+    pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
+        let p = &self.pairs[i].pair;
+        if p.kind != PairType::AnchorOpening {
+            return false;
+        }
+        let size = |r: RobotId| {
+            segments
+                .values()
+                .filter(|&&s| Some(&s) == segments.get(&r))
+                .count()
+        };
+        let waits = |r: RobotId| {
+            size(r) > 1
+                || segments
+                    .iter()
+                    .filter(|(_, &s)| Some(&s) == segments.get(&r))
+                    .all(|(&m, _)| self.kind_of(m) == RobotKind::Pilot)
+        };
+        let lone = |r: RobotId| size(r) == 1 && self.kind_of(r) == RobotKind::NonPilot;
+        let (mover, partner) = if lone(p.a) && waits(p.b) {
+            (p.a, p.b)
+        } else if lone(p.b) && waits(p.a) {
+            (p.b, p.a)
+        } else {
+            return false;
+        };
+        let Some(f) = self.dock_frame(i, mover) else {
+            return false;
+        };
+        // Own connection point at the front: the approach comes from behind the place.
+        let s = f.normal.0.signum();
+        let reach = self.cfg.dock.standoff + super::approach::ROUTE_CLEARANCE;
+        self.robots.iter().any(|(&id, k)| {
+            if id == mover || self.lost.contains(&id) || segments.get(&id) == segments.get(&partner)
+            {
+                return false;
+            }
+            let o = f.fin.inverse_transform(k.pose.xy());
+            let out = -s * o[0];
+            out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH
+        })
     }
 
     /// Growing around `seed`: the pair in progress, else the pair by which the nearest lone
