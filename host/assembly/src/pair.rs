@@ -194,8 +194,14 @@ fn knob_probe(m: &PairMeasure) -> KnobProbe {
     }
 }
 
-/// Updates in a row that must see a head seated before its pair counts as head inserted.
+/// Updates, of the last [`SEATED_WINDOW`] in head aligned, that must see a head seated before
+/// its pair counts as head inserted.
 pub const SEATED_UPDATES: u32 = 2;
+/// See [`SEATED_UPDATES`]: not "in a row", which a joint rocking by a few millimetres at half
+/// the update rate never satisfies (over loopback two segments joined, the simulator coupled
+/// them, the head was seen seated every other update, and the host waited until the step timed
+/// out).
+pub const SEATED_WINDOW: u32 = 3;
 
 /// A status change of one pair.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -219,9 +225,13 @@ pub struct TrackedPair {
     pub since: f64,
     /// Last measurement, if any.
     pub last: Option<PairMeasure>,
-    /// Consecutive updates in [`PairStatus::HeadAligned`] with the head seen seated.
+    /// Updates of the last [`SEATED_WINDOW`] in [`PairStatus::HeadAligned`] with the head
+    /// seen seated.
     #[serde(default)]
     pub seated_updates: u32,
+    /// The last updates in [`PairStatus::HeadAligned`], newest in bit 0 (1: head seen seated).
+    #[serde(default)]
+    pub seated_history: u8,
 }
 
 impl TrackedPair {
@@ -233,6 +243,7 @@ impl TrackedPair {
             since: t,
             last: None,
             seated_updates: 0,
+            seated_history: 0,
         }
     }
 
@@ -272,6 +283,7 @@ impl TrackedPair {
             s.status = to;
             s.since = t;
             s.seated_updates = 0;
+            s.seated_history = 0;
         };
         // At most three steps per tick (decoupled → aligned → inserted, or a fall back).
         for _ in 0..3 {
@@ -283,21 +295,19 @@ impl TrackedPair {
                     }
                 }
                 PairStatus::HeadAligned => {
-                    if is_inserted(kind, &m, tol, g, 1.0) {
-                        // Seated in [`SEATED_UPDATES`] updates in a row: one sample is not
-                        // enough over a network, where the two robots' poses can be from
-                        // different instants (measured over loopback: a mesh pair counted
-                        // inserted, then connected, that the simulator never coupled, its
-                        // robots stalled 3 mm short).
-                        self.seated_updates += 1;
-                        if self.seated_updates >= SEATED_UPDATES {
-                            go(self, PairStatus::HeadInserted);
-                        }
-                    } else {
-                        self.seated_updates = 0;
-                        if !is_aligned(kind, &m, tol, g, h) {
-                            go(self, PairStatus::Decoupled);
-                        }
+                    // Seated in [`SEATED_UPDATES`] of the last [`SEATED_WINDOW`] updates: one
+                    // sample is not enough over a network, where the two robots' poses can be
+                    // from different instants (measured over loopback: a mesh pair counted
+                    // inserted, then connected, that the simulator never coupled, its robots
+                    // stalled 3 mm short).
+                    let seated = is_inserted(kind, &m, tol, g, 1.0);
+                    let window = (1u8 << SEATED_WINDOW) - 1;
+                    self.seated_history = ((self.seated_history << 1) | u8::from(seated)) & window;
+                    self.seated_updates = self.seated_history.count_ones();
+                    if self.seated_updates >= SEATED_UPDATES {
+                        go(self, PairStatus::HeadInserted);
+                    } else if !seated && !is_aligned(kind, &m, tol, g, h) {
+                        go(self, PairStatus::Decoupled);
                     }
                 }
                 PairStatus::HeadInserted => {
@@ -388,33 +398,37 @@ mod tests {
         assert_eq!(tr.len(), 1);
         assert_eq!(p.status, PairStatus::HeadAligned);
         // Seen seated once (a single sample may pair poses of different instants): still
-        // only aligned; seen out of the seat, the count starts again.
+        // only aligned; two updates out of the seat and it is forgotten.
         let (a, b) = anchor_poses(0.0005, 0.0, 0.05);
+        let (a2, b2) = anchor_poses(0.003, 0.0, 0.05);
         p.update(0.2, &a, &b, &g, &tol);
         assert_eq!(p.status, PairStatus::HeadAligned);
-        let (a2, b2) = anchor_poses(0.003, 0.0, 0.05);
         p.update(0.25, &a2, &b2, &g, &tol);
-        p.update(0.3, &a, &b, &g, &tol);
-        assert_eq!(p.status, PairStatus::HeadAligned);
-        // Seated in two updates in a row: inserted, not yet connected.
+        p.update(0.3, &a2, &b2, &g, &tol);
         p.update(0.35, &a, &b, &g, &tol);
-        assert_eq!(p.status, PairStatus::HeadInserted);
+        assert_eq!(p.status, PairStatus::HeadAligned, "one of the last three");
+        // Seated in two of the last three updates (also a joint rocking in and out of its
+        // seat at half the update rate): inserted, not yet connected.
+        p.update(0.4, &a2, &b2, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadAligned);
         p.update(0.45, &a, &b, &g, &tol);
         assert_eq!(p.status, PairStatus::HeadInserted);
+        p.update(0.55, &a, &b, &g, &tol);
+        assert_eq!(p.status, PairStatus::HeadInserted);
         // Held for the confirmation time: connected.
-        p.update(0.7, &a, &b, &g, &tol);
+        p.update(0.8, &a, &b, &g, &tol);
         assert_eq!(p.status, PairStatus::Connected);
         // Flexible anchor: 0.4 rad of yaw keeps it connected.
         let (a, b) = anchor_poses(0.002, 0.0, 0.4);
-        p.update(0.6, &a, &b, &g, &tol);
+        p.update(0.85, &a, &b, &g, &tol);
         assert_eq!(p.status, PairStatus::Connected);
         // Pulled 3 cm apart (decoupling): decoupled.
         let (a, b) = anchor_poses(0.03, 0.0, 0.0);
-        let tr = p.update(0.7, &a, &b, &g, &tol);
+        let tr = p.update(0.9, &a, &b, &g, &tol);
         assert_eq!(
             tr,
             vec![Transition {
-                t: 0.7,
+                t: 0.9,
                 from: PairStatus::Connected,
                 to: PairStatus::Decoupled
             }]
