@@ -68,11 +68,11 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "flaky in real time (measured 2026-12-01 with the current code: 12 of 13 loopback \
-            runs, 3 of them with both cores loaded; the failure: in the join of two 2-robot \
-            segments the aligning leader turned on the spot with a robot at its front, popped \
-            that anchor, and the re-approach timed out); the lockstep version passes 47 of 48 \
-            seeds at 0 and 20 ms"]
+#[ignore = "flaky in real time (measured 2026-12-01 with the current code: 16 of 17 loopback \
+            runs, 4 of them with both cores loaded; the failure: the join of the two 2-robot \
+            segments, which circled each other for 40 s; earlier versions 12 of 13, failing \
+            when that join popped a pair or rocked in its seat); the lockstep version passes \
+            47 of 48 seeds at 0 and 20 ms"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -133,8 +133,9 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-// Real time over loopback, measured 2026-12-01 with the current code: 14 of 14 runs (11 idle,
-// 3 with both cores loaded by busy loops); ignored until then (earlier versions: 11 of 16
+// Real time over loopback, measured 2026-12-01: 14 of 14 runs (11 idle, 3 with both cores
+// loaded by busy loops), then with a head seated in 2 of the last 3 updates 10 of 10 (4
+// loaded); ignored until then (earlier versions: 11 of 16
 // when the host could count a pair connected that the simulator never coupled, then 14 of
 // 14); the lockstep version passes 48 of 48 seeds at 0 and 20 ms.
 async fn four_robots_form_a_two_by_two_mesh() {
@@ -205,8 +206,9 @@ timeout_s = 25
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-// Real time over loopback, measured 2026-12-01 with the current code: 14 of 14 runs (11 idle,
-// 3 with both cores loaded); ignored until then (earlier versions passed 11 of 11 and then
+// Real time over loopback, measured 2026-12-01: 14 of 14 runs (11 idle, 3 with both cores
+// loaded), then with a head seated in 2 of the last 3 updates 9 of 9 (3 loaded); ignored
+// until then (earlier versions passed 11 of 11 and then
 // failed a clean-clone CI run, or 6 of 8 loaded, when the host counted a pair connected
 // that the simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms.
 async fn a_robot_lost_mid_formation_is_replanned_without() {
