@@ -114,35 +114,44 @@ impl Coordinator {
         active
     }
 
-    /// Whether anchor pair `i` would be joined by a lone non-pilot's staged approach (its
-    /// partner's side holds: an assembly, or pilots alone) while another robot stands on
-    /// the approach axis (centre within [`AXIS_BLOCK_HALF_WIDTH`] of it) nearer to the final
-    /// place than the stand-off plus the route clearance: the stand-off would move out past
-    /// that robot and the approach run through it.
-    pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
-        let p = &self.pairs[i].pair;
+    /// Anchor pair `i` joined by a lone non-pilot's staged approach (its partner's side holds:
+    /// an assembly, or pilots alone, which are not driven until coupled): (mover, partner).
+    pub(super) fn lone_approach(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Option<(RobotId, RobotId)> {
+        let p = &self.pairs.get(i)?.pair;
         if p.kind != PairType::AnchorOpening {
-            return false;
+            return None;
         }
-        let size = |r: RobotId| {
+        let members = |r: RobotId| {
+            let s = segments.get(&r);
             segments
-                .values()
-                .filter(|&&s| Some(&s) == segments.get(&r))
-                .count()
+                .iter()
+                .filter(move |(_, x)| Some(*x) == s)
+                .map(|(&m, _)| m)
         };
-        let waits = |r: RobotId| {
-            size(r) > 1
-                || segments
-                    .iter()
-                    .filter(|(_, &s)| Some(&s) == segments.get(&r))
-                    .all(|(&m, _)| self.kind_of(m) == RobotKind::Pilot)
+        let lone = |r: RobotId| members(r).count() == 1 && self.kind_of(r) == RobotKind::NonPilot;
+        let holds = |r: RobotId| {
+            members(r).count() > 1 || members(r).all(|m| self.kind_of(m) == RobotKind::Pilot)
         };
-        let lone = |r: RobotId| size(r) == 1 && self.kind_of(r) == RobotKind::NonPilot;
-        let (mover, partner) = if lone(p.a) && waits(p.b) {
-            (p.a, p.b)
-        } else if lone(p.b) && waits(p.a) {
-            (p.b, p.a)
+        if lone(p.a) && holds(p.b) {
+            Some((p.a, p.b))
+        } else if lone(p.b) && holds(p.a) {
+            Some((p.b, p.a))
         } else {
+            None
+        }
+    }
+
+    /// Whether anchor pair `i` would be joined by a lone robot's staged approach
+    /// ([`Coordinator::lone_approach`]) while another robot stands on the approach axis
+    /// (centre within [`AXIS_BLOCK_HALF_WIDTH`] of it) nearer to the final place than the
+    /// stand-off plus the route clearance: the stand-off would move out past that robot and
+    /// the approach run through it.
+    pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
+        let Some((mover, partner)) = self.lone_approach(i, segments) else {
             return false;
         };
         let Some(f) = self.dock_frame(i, mover) else {

@@ -218,14 +218,13 @@ impl Coordinator {
                             }
                         } else {
                             let other = if me == p.a { p.b } else { p.a };
-                            let partner_waits = home == Some(segments[&other])
-                                || lone_joins
-                                || members[&segments[&other]]
-                                    .iter()
-                                    .all(|&m| self.kind_of(m) == RobotKind::Pilot);
-                            let approach = (p.kind == PairType::AnchorOpening
-                                && partner_waits
-                                && members[&seg].len() == 1
+                            // The staged approach of a lone robot whose partner holds: the
+                            // assembly being grown, or (`lone_approach`) any assembly or pilots.
+                            let staged = (p.kind == PairType::AnchorOpening
+                                && home == Some(segments[&other])
+                                && members[&seg].len() == 1)
+                                || self.lone_approach(i, segments) == Some((me, other));
+                            let approach = (staged
                                 && matches!(
                                     self.pairs[i].status,
                                     PairStatus::Decoupled | PairStatus::HeadAligned
