@@ -66,8 +66,9 @@ impl Coordinator {
                 continue;
             }
             let tol = self.cfg.tolerances;
-            // A pair seen seated itself stays: it needs `SEATED_UPDATES` updates to count as
-            // inserted, and re-targeting would start it afresh.
+            // A pair seen seated itself stays: it needs `SEATED_UPDATES` of the last
+            // `SEATED_WINDOW` updates seated to count as inserted, and re-targeting would
+            // start it afresh.
             if tp.seated_updates > 0 {
                 continue;
             }

@@ -192,12 +192,9 @@ impl Coordinator {
                     // by the MPC, a coupled segment bends its joints and drags its members
                     // (lockstep, seeds 1-24: the lost-robot line 21 → 24 of 24 at 30 ms, 22 → 24 at
                     // 0 ms; the 2×2 mesh 23 → 24 of 24 at 40 ms).
-                    let size = |r: RobotId| members[&segments[&r]].len();
-                    let lone_joins = p.kind == PairType::AnchorOpening
-                        && (size(p.a) == 1) != (size(p.b) == 1)
-                        && [p.a, p.b]
-                            .iter()
-                            .all(|&r| size(r) > 1 || self.kind_of(r) == RobotKind::NonPilot);
+                    let lone_joins = self
+                        .lone_approach(i, segments)
+                        .is_some_and(|(_, partner)| members[&segments[&partner]].len() > 1);
                     for me in [p.a, p.b] {
                         let seg = segments[&me];
                         if home == Some(seg) || (lone_joins && members[&seg].len() > 1) {
