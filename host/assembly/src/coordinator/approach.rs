@@ -31,6 +31,14 @@ const FLUSH_OFFSET: f64 = 0.004;
 /// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
 /// the 25 mm to the next wrong hole.
 const FLUSH_CONVERGE: f64 = 0.02;
+/// Side docking: lateral distance kept from the partner's side (m) until the last
+/// [`DOCK_CONVERGE`] before the place: above the knob's 1.5 mm seat gap where the knob passes
+/// the wrong hole. (3 mm measured best of 0 / 2.5 / 3 / 4 mm: 4 mm converges too late and the
+/// robot sweeps over its place without clicking in.)
+const DOCK_HOLD: f64 = 0.003;
+/// Side docking: distance before the place where the robot closes [`DOCK_HOLD`] (m): past the
+/// wrong hole 25 mm before the place.
+const DOCK_CONVERGE: f64 = 0.022;
 /// How far around the robots a route may swing out (m).
 const ROUTE_MARGIN: f64 = 0.3;
 
@@ -144,7 +152,16 @@ impl Coordinator {
         let v = dir * d.speed;
         // The turning sense that moves the robot towards the partner in this direction.
         let toward = (dir * ny).signum();
-        let target = toward * (d.k_lat * (lat + d.press)).clamp(-d.max_heading, d.max_heading);
+        // Until the last `DOCK_CONVERGE` before the place the robot keeps `DOCK_HOLD` off
+        // the side: converging all the way, it came within the seat gap where its knob
+        // passes the wrong hole (25 mm before the place) and clicked in there.
+        let hold = if -dir * here[0] > DOCK_CONVERGE {
+            DOCK_HOLD
+        } else {
+            0.0
+        };
+        let target =
+            toward * (d.k_lat * (lat + d.press - hold)).clamp(-d.max_heading, d.max_heading);
         let w = -d.k_theta * wrap_angle(yaw_rel - target);
         Some(Role::Dock { pair: i, v, w })
     }
@@ -283,18 +300,32 @@ impl Coordinator {
                 tp.pair.a
             }
         });
-        let beside: f64 = self
+        // Measured from the robots themselves, not from the axis: the place is computed from
+        // the partner, and a row a few hundredths of a radian off its neighbour's heading
+        // stands millimetres nearer the axis at its far end (seen: flush there, a knob
+        // clicked in beside the wrong robot).
+        let width = f64::from(self.geometry.width);
+        let (mut low, mut high) = (f64::NEG_INFINITY, f64::INFINITY);
+        for o in self
             .robots
             .iter()
             .filter(|(id, _)| **id != me && Some(**id) != partner && !self.lost.contains(id))
             .map(|(_, k)| fin.inverse_transform(k.pose.xy()))
             .filter(|o| o[1].abs() < 0.08 && -s * o[0] > -0.05 && -s * o[0] < out + 0.05)
-            .map(|o| o[1].signum())
-            .sum();
-        let lat_goal = if out > FLUSH_CONVERGE {
-            -beside.signum() * FLUSH_OFFSET
-        } else {
+        {
+            if o[1] < 0.0 {
+                low = low.max(o[1] + width + FLUSH_OFFSET);
+            } else {
+                high = high.min(o[1] - width - FLUSH_OFFSET);
+            }
+        }
+        let lat_goal = if out <= FLUSH_CONVERGE {
             0.0
+        } else if low > high {
+            // Between robots on both sides: the middle.
+            0.5 * (low + high)
+        } else {
+            0.0f64.max(low).min(high)
         };
         let target = (-dir * d.k_lat * (lat - lat_goal)).clamp(-d.max_heading, d.max_heading);
         let w = -d.k_theta * wrap_angle(yaw_rel - target);

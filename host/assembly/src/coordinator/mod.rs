@@ -109,9 +109,9 @@ pub enum Role {
 pub struct DockConfig {
     /// Length of the approach (m).
     pub run_in: f64,
-    /// How far outside the final place the approach starts (m): the lateral distance
-    /// still left where a knob passes the wrong hole (25 mm before the place) must stay
-    /// above the knob's 1.5 mm seat gap.
+    /// How far outside the final place the approach starts (m); the line follower then
+    /// holds a smaller distance off the side until just before the place, past the wrong
+    /// hole 25 mm before it (`approach::DOCK_HOLD`).
     pub offset: f64,
     /// Approach speed (m/s): above the wheels' start-up dead-band (20 RPM ≈ 0.036 m/s).
     pub speed: f64,
@@ -1191,8 +1191,9 @@ mod tests {
         assert!(json.contains("\"event\":\"planned\""), "{json}");
     }
 
-    #[test]
-    fn a_lone_robot_docks_at_a_row_instead_of_joining_two_rows_sideways() {
+    /// A 2×2 mesh whose first row pair is connected, ticked until its side pair is active:
+    /// the coordinator, the robots, the tick, the row pair and the side pair's index.
+    fn row_formed_side_next() -> (Coordinator, Vec<RobotState>, Tick, PlannedPair, usize) {
         let mut c = coordinator();
         let robots = vec![
             np(1, 0.0, 0.0, 0.0),
@@ -1220,9 +1221,16 @@ mod tests {
         c.tick(0.1, &mixed);
         c.tick(0.2, &mixed);
         let tick = c.tick(1.0, &mixed);
-        // Next: the side (knob) pair, not the other row's anchor pair.
         assert_eq!(tick.active.len(), 1, "{:?}", tick.active);
-        let side = c.pairs()[tick.active[0]].pair;
+        let side = tick.active[0];
+        (c, mixed, tick, first, side)
+    }
+
+    #[test]
+    fn a_lone_robot_docks_at_a_row_instead_of_joining_two_rows_sideways() {
+        let (c, _, tick, first, side) = row_formed_side_next();
+        // Next: the side (knob) pair, not the other row's anchor pair.
+        let side = c.pairs()[side].pair;
         assert_eq!(side.kind, PairType::KnobHole);
         // Its robot outside the row docks (drives directly or goes to the approach's start);
         // the row holds still.
@@ -1239,6 +1247,113 @@ mod tests {
         for id in [first.a, first.b] {
             assert_eq!(role_of(&tick, id), &Role::Hold, "row robot {id}");
         }
+    }
+
+    #[test]
+    fn a_docking_robot_stays_off_the_side_until_it_has_passed_the_wrong_hole() {
+        let (mut c, mixed, _, first, i) = row_formed_side_next();
+        let side = c.pairs()[i].pair;
+        let lone = if side.a == first.a || side.a == first.b {
+            side.b
+        } else {
+            side.a
+        };
+        // On the approach line, parallel to the place, `before` short of it and 3 mm out.
+        let frame = c.dock_frame(i, lone).unwrap();
+        let (_, ny) = frame.normal;
+        let mut turn_at = |t: f64, before: f64| {
+            let pose = frame.fin.compose(&Pose2::new(-before, -0.003 * ny, 0.0));
+            let robots: Vec<RobotState> = mixed
+                .iter()
+                .map(|r| {
+                    if r.id == lone {
+                        RobotState { pose, ..*r }
+                    } else {
+                        *r
+                    }
+                })
+                .collect();
+            match role_of(&c.tick(t, &robots), lone) {
+                // Turning towards the side is positive.
+                Role::Dock { v, w, .. } if *v > 0.0 => w * ny.signum(),
+                other => panic!("{before} m before its place: {other:?}"),
+            }
+        };
+        // 25 mm before the place its knob passes the wrong hole: still parallel, off the side
+        // (it used to close in all the way and click in there).
+        let far = turn_at(1.1, 0.03);
+        assert!(far.abs() < 0.05, "turns {far} rad/s 30 mm before its place");
+        // Past it, it closes in.
+        let near = turn_at(1.2, 0.01);
+        assert!(near > 0.2, "turns {near} rad/s 10 mm before its place");
+    }
+
+    #[test]
+    fn an_anchor_approach_beside_a_row_keeps_off_the_robots_where_they_are() {
+        let (mut c, mixed, _, first, side) = row_formed_side_next();
+        let kinds: BTreeMap<_, _> = mixed.iter().map(|r| (r.id, r.kind)).collect();
+        let goal = at_goals(&c, &kinds);
+        // The other row's anchor pair: its robot in the side pair is in place; the other one
+        // comes in along the axis, which runs beside the first row.
+        let sp = c.pairs()[side].pair;
+        let j = (0..c.pairs().len())
+            .find(|&k| k != side && c.pairs()[k].pair != first)
+            .unwrap();
+        let p = c.pairs()[j].pair;
+        let me = if [sp.a, sp.b].contains(&p.a) {
+            p.b
+        } else {
+            p.a
+        };
+        // Its place, with its partner in place.
+        c.tick(1.5, &goal);
+        let frame = c.dock_frame(j, me).unwrap();
+        let s = frame.normal.0.signum();
+        // The first row stands 3 mm nearer the axis than planned (a bent or skewed row).
+        let row_side = frame
+            .fin
+            .inverse_transform(goal.iter().find(|r| r.id == first.a).unwrap().pose.xy())[1]
+            .signum();
+        let (sn, cs) = frame.fin.yaw.sin_cos();
+        let shift = -row_side * 0.003;
+        let robots: Vec<RobotState> = goal
+            .iter()
+            .map(|r| {
+                let mut r = *r;
+                if r.id == first.a || r.id == first.b {
+                    r.pose.x -= sn * shift;
+                    r.pose.y += cs * shift;
+                } else if r.id == me {
+                    // 60 mm out on the axis, 4 mm off it away from the row, parallel.
+                    r.pose = frame
+                        .fin
+                        .compose(&Pose2::new(-s * 0.06, -row_side * 0.004, 0.0));
+                }
+                r
+            })
+            .collect();
+        c.tick(2.0, &robots);
+        c.dock_dir.borrow_mut().insert(
+            j,
+            Manoeuvre::In {
+                dir: s,
+                best: 0.06,
+                since: 2.0,
+            },
+        );
+        let role = c.anchor_approach_role(j, me);
+        let Some(Role::Dock { v, w, .. }) = role else {
+            panic!(
+                "{role:?} me {me} pair {p:?} {:?} {:?}",
+                c.robots.get(&me),
+                frame.fin
+            );
+        };
+        assert!(v * s > 0.0, "going in: v {v}");
+        // 4 mm off the axis is 1 mm off the row's side: it steers away from the row (it
+        // used to hold 4 mm off the axis and slid flush along the row's side).
+        let away = w * -row_side * s;
+        assert!(away > 0.1, "turns {w} rad/s (away from the row: {away})");
     }
 
     #[test]
