@@ -39,6 +39,9 @@ const DOCK_HOLD: f64 = 0.003;
 /// Side docking: distance before the place where the robot closes [`DOCK_HOLD`] (m): past the
 /// wrong hole 25 mm before the place.
 const DOCK_CONVERGE: f64 = 0.022;
+/// Side docking: a heading error (rad) above which the robot, still short of
+/// [`DOCK_CONVERGE`], turns on the spot before it drives on (0.08 measured best of 0.08–0.2).
+const DOCK_TURN_FIRST: f64 = 0.08;
 /// How far around the robots a route may swing out (m).
 const ROUTE_MARGIN: f64 = 0.3;
 
@@ -162,8 +165,20 @@ impl Coordinator {
         };
         let target =
             toward * (d.k_lat * (lat + d.press - hold)).clamp(-d.max_heading, d.max_heading);
-        let w = -d.k_theta * wrap_angle(yaw_rel - target);
-        Some(Role::Dock { pair: i, v, w })
+        let err = wrap_angle(yaw_rel - target);
+        if hold > 0.0 && err.abs() > DOCK_TURN_FIRST {
+            // Still turning (the turn onto the approach line carries on past its end):
+            // driving now would close the hold at once (seen: 0.3 rad towards the side at
+            // the start, flush 25 mm before the place). Only on the way in: sweeping over
+            // the place, turns on the spot at each reversal kept robots from clicking in.
+            let w = (d.k_theta * err.abs()).clamp(d.min_turn, 1.5) * -err.signum();
+            return Some(Role::Dock { pair: i, v: 0.0, w });
+        }
+        Some(Role::Dock {
+            pair: i,
+            v,
+            w: -d.k_theta * err,
+        })
     }
 
     /// Anchor pair `i` between a waiting pilot and robot `me` (alone): stand off on the

@@ -1261,8 +1261,11 @@ mod tests {
         // On the approach line, parallel to the place, `before` short of it and 3 mm out.
         let frame = c.dock_frame(i, lone).unwrap();
         let (_, ny) = frame.normal;
-        let mut turn_at = |t: f64, before: f64| {
-            let pose = frame.fin.compose(&Pose2::new(-before, -0.003 * ny, 0.0));
+        // (v, turn towards the side) at `before` short of the place and `yaw` towards the side.
+        let mut drive_at = |t: f64, before: f64, yaw: f64| {
+            let pose = frame
+                .fin
+                .compose(&Pose2::new(-before, -0.003 * ny, yaw * ny.signum()));
             let robots: Vec<RobotState> = mixed
                 .iter()
                 .map(|r| {
@@ -1274,18 +1277,27 @@ mod tests {
                 })
                 .collect();
             match role_of(&c.tick(t, &robots), lone) {
-                // Turning towards the side is positive.
-                Role::Dock { v, w, .. } if *v > 0.0 => w * ny.signum(),
+                Role::Dock { v, w, .. } => (*v, w * ny.signum()),
                 other => panic!("{before} m before its place: {other:?}"),
             }
         };
         // 25 mm before the place its knob passes the wrong hole: still parallel, off the side
         // (it used to close in all the way and click in there).
-        let far = turn_at(1.1, 0.03);
-        assert!(far.abs() < 0.05, "turns {far} rad/s 30 mm before its place");
-        // Past it, it closes in.
-        let near = turn_at(1.2, 0.01);
-        assert!(near > 0.2, "turns {near} rad/s 10 mm before its place");
+        let (v, far) = drive_at(1.1, 0.03, 0.0);
+        assert!(
+            v > 0.0 && far.abs() < 0.05,
+            "turns {far} rad/s 30 mm before its place"
+        );
+        // Heading for the side there (its turn onto the line went on too far): it turns away
+        // on the spot before it drives on.
+        let (v, w) = drive_at(1.2, 0.03, 0.3);
+        assert!(v == 0.0 && w < -0.5, "v {v}, turns {w} rad/s");
+        // Past the wrong hole, it closes in.
+        let (v, near) = drive_at(1.3, 0.01, 0.0);
+        assert!(
+            v > 0.0 && near > 0.2,
+            "turns {near} rad/s 10 mm before its place"
+        );
     }
 
     #[test]
