@@ -33,14 +33,16 @@ const FLUSH_OFFSET: f64 = 0.004;
 const FLUSH_CONVERGE: f64 = 0.02;
 /// Side docking: lateral distance kept from the partner's side (m) until the last
 /// [`DOCK_CONVERGE`] before the place: above the knob's 1.5 mm seat gap where the knob passes
-/// the wrong hole. (3 mm measured best of 0 / 2.5 / 3 / 4 mm: 4 mm converges too late and the
-/// robot sweeps over its place without clicking in.)
+/// the wrong hole. (Lockstep, the grown demo over seeds 1–24 at 0 and 20 ms: with 0 / 2.5 / 3 /
+/// 4 mm it formed 30 / 31 / 35 / 30 of 48; at 4 mm a 2×2 mesh's docking robot swept over its
+/// place 2 mm off the side for 40 s.)
 const DOCK_HOLD: f64 = 0.003;
 /// Side docking: distance before the place where the robot closes [`DOCK_HOLD`] (m): past the
 /// wrong hole 25 mm before the place.
 const DOCK_CONVERGE: f64 = 0.022;
 /// Side docking: a heading error (rad) above which the robot, still short of
-/// [`DOCK_CONVERGE`], turns on the spot before it drives on (0.08 measured best of 0.08–0.2).
+/// [`DOCK_CONVERGE`], turns on the spot before it drives on (at 0.12–0.2 the demo's seed 5
+/// still closed the hold and clicked in one hole early).
 const DOCK_TURN_FIRST: f64 = 0.08;
 /// How far around the robots a route may swing out (m).
 const ROUTE_MARGIN: f64 = 0.3;
