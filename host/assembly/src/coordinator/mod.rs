@@ -1606,6 +1606,68 @@ mod tests {
     }
 
     #[test]
+    fn a_moving_mesh_keeps_its_leader_when_another_robot_heads_nearer_the_mean() {
+        let mut c = coordinator();
+        c.cfg.form_settle_s = 0.0;
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.0, 0.0),
+            np(3, 0.0, 0.3, 0.0),
+            np(4, 0.3, 0.3, 0.0),
+        ];
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
+            .unwrap();
+        let goal = at_goals(&c, &kinds);
+        let mut t = 1.0;
+        while !c.tick(t, &goal).complete {
+            t += 0.1;
+            assert!(t < 10.0, "the mesh formed");
+        }
+        // Headings within noise of each other: robot `id` is the one nearest the mean.
+        let tilted = |id: RobotId| -> Vec<RobotState> {
+            goal.iter()
+                .map(|r| {
+                    let mut r = *r;
+                    r.pose.yaw += if r.id == id {
+                        0.0
+                    } else {
+                        0.002 * f64::from(r.id)
+                    };
+                    r
+                })
+                .collect()
+        };
+        let leaders = |tick: &Tick| -> BTreeSet<Option<RobotId>> {
+            tick.tasks.iter().map(|k| k.leader).collect()
+        };
+        c.set_mode(t, Mode::Velocity { v: 0.04, w: 0.0 });
+        let first = leaders(&c.tick(t + 0.1, &tilted(1)));
+        assert_eq!(first.len(), 1, "one leader: {first:?}");
+        let reference = |tick: &Tick, id: RobotId| match role_of(tick, id) {
+            Role::Track { reference } => reference[0],
+            other => panic!("{other:?}"),
+        };
+        let lead = first.iter().next().copied().flatten().expect("a leader");
+        let before = reference(&c.tick(t + 1.0, &tilted(1)), lead);
+        // Another robot now heads nearest the mean: the lead (and the reference, which
+        // a new leader restarted from rest where the mesh then stood) stays.
+        for (k, id) in [4, 2, 3].into_iter().enumerate() {
+            let tick = c.tick(t + 1.1 + 0.1 * k as f64, &tilted(id));
+            assert_eq!(
+                leaders(&tick),
+                first,
+                "leader with robot {id} nearest the mean"
+            );
+        }
+        let after = reference(&c.tick(t + 2.0, &tilted(3)), lead);
+        assert!(
+            after.x - before.x > 0.5 * 0.04 * 0.5,
+            "the reference went on: {before:?} → {after:?}"
+        );
+    }
+
+    #[test]
     fn a_lone_robot_does_not_approach_through_a_robot_on_its_axis() {
         // A line of four: the rear pair is connected, the robot second from the front is
         // 30 mm off its place and the front robot stands at its own place, i.e. on the axis

@@ -134,8 +134,14 @@ impl Coordinator {
     /// Leader of a segment for assembly motion: of a chain of anchors (a train) the lowest-id
     /// non-pilot; of a rigid assembly the non-pilot heading closest to the members' mean
     /// heading (a robot hanging askew at an anchor would lead the rigid rest sideways);
-    /// without non-pilots the lowest id.
+    /// without non-pilots the lowest id. A member that already leads this motion (its start
+    /// is recorded) keeps leading: chosen afresh each tick, the lead flipped between robots
+    /// of a rigid mesh whose headings agree to noise, and each new leader restarted the
+    /// reference from rest where the mesh then was.
     pub(super) fn motion_leader(&self, members: &[RobotId]) -> RobotId {
+        if let Some(&id) = members.iter().find(|id| self.motion_start.contains_key(id)) {
+            return id;
+        }
         let first = members
             .iter()
             .copied()
