@@ -665,7 +665,7 @@ fn the_assembly_demo_grows_a_mesh_and_drives_it_half_a_metre() {
     // seeds 1–12 of `scattered_fleet(6, 1, seed)`: 10 grow the mesh and drive it 0.5 m with
     // every coupling intact (8 before the formation settling of session 5; the others pop an
     // anchor while driving); the demo's seed 5 is one of the ten. Session 8 (2026-12-01), seeds
-    // 1–48 at 0 and 20 ms: formed 71 of 96, formed and drove intact 54 (the README's Status).
+    // 1–48 at 0 and 20 ms: formed 72 of 96, formed and drove intact 56 (the README's Status).
     let f = puzzlebot_host::assemble::grow_demo_fleet();
     let mut ctl = controller(&f, puzzlebot_host::assemble::GROW_DEMO_SCENARIO);
     // The pilot's pose over the run, to measure the drive from where the step began.
