@@ -493,15 +493,19 @@ mod tests {
         assert_eq!(p.status, PairStatus::HeadAligned);
     }
 
+    /// Robot a of [`knob_pair`] with the hole robot b at the origin: a (knob on its left)
+    /// sits to b's right, shifted back by half a body (a.left_front meets b.right_back), then
+    /// `along` forward and `gap` further out.
+    fn knob_place(along: f64, gap: f64) -> Pose2 {
+        Pose2::new(-0.025 + along, -0.05 - gap, 0.0)
+    }
+
     #[test]
     fn knob_needs_sub_millimetre_alignment() {
         let g = Geometry::default();
         let tol = PairTolerances::default();
         let mut p = TrackedPair::new(knob_pair(), 0.0);
-        // b is the hole robot at the origin; a (knob on its left) sits to b's right, shifted
-        // back by half a body: a.left_front meets b.right_back.
-        let place = |along: f64, gap: f64| Pose2::new(-0.025 + along, -0.05 - gap, 0.0);
-        let b = Pose2::new(0.0, 0.0, 0.0);
+        let (place, b) = (knob_place, Pose2::new(0.0, 0.0, 0.0));
         p.update(0.0, &place(0.002, 0.0), &b, &g, &tol);
         assert_eq!(p.status, PairStatus::Decoupled, "2 mm off is not aligned");
         p.update(0.1, &place(0.0005, 0.003), &b, &g, &tol);
@@ -518,8 +522,7 @@ mod tests {
         let g = Geometry::default();
         let tol = PairTolerances::default();
         let mut p = TrackedPair::new(knob_pair(), 0.0);
-        let place = |along: f64, gap: f64| Pose2::new(-0.025 + along, -0.05 - gap, 0.0);
-        let b = Pose2::new(0.0, 0.0, 0.0);
+        let (place, b) = (knob_place, Pose2::new(0.0, 0.0, 0.0));
         for t in [0.0, 0.1, 0.2, 0.6] {
             p.update(t, &place(0.0, 0.0), &b, &g, &tol);
         }

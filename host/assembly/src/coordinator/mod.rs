@@ -1087,6 +1087,16 @@ mod tests {
         }
     }
 
+    /// Four robots 0.3 m apart on a square, all facing +x.
+    fn four_apart() -> Vec<RobotState> {
+        vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.0, 0.0),
+            np(3, 0.0, 0.3, 0.0),
+            np(4, 0.3, 0.3, 0.0),
+        ]
+    }
+
     fn coordinator() -> Coordinator {
         Coordinator::from_params(&FleetParams::default())
     }
@@ -1112,12 +1122,7 @@ mod tests {
     #[test]
     fn mesh_2x2_rows_first_then_side_then_complete() {
         let mut c = coordinator();
-        let robots = vec![
-            np(1, 0.0, 0.0, 0.0),
-            np(2, 0.3, 0.0, 0.0),
-            np(3, 0.0, 0.3, 0.0),
-            np(4, 0.3, 0.3, 0.0),
-        ];
+        let robots = four_apart();
         let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
             .unwrap();
@@ -1195,12 +1200,7 @@ mod tests {
     /// the coordinator, the robots, the tick, the row pair and the side pair's index.
     fn row_formed_side_next() -> (Coordinator, Vec<RobotState>, Tick, PlannedPair, usize) {
         let mut c = coordinator();
-        let robots = vec![
-            np(1, 0.0, 0.0, 0.0),
-            np(2, 0.3, 0.0, 0.0),
-            np(3, 0.0, 0.3, 0.0),
-            np(4, 0.3, 0.3, 0.0),
-        ];
+        let robots = four_apart();
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
             .unwrap();
@@ -1609,12 +1609,7 @@ mod tests {
     fn a_moving_mesh_keeps_its_leader_when_another_robot_heads_nearer_the_mean() {
         let mut c = coordinator();
         c.cfg.form_settle_s = 0.0;
-        let robots = vec![
-            np(1, 0.0, 0.0, 0.0),
-            np(2, 0.3, 0.0, 0.0),
-            np(3, 0.0, 0.3, 0.0),
-            np(4, 0.3, 0.3, 0.0),
-        ];
+        let robots = four_apart();
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
             .unwrap();
