@@ -46,16 +46,16 @@ pub struct PairTolerances {
     /// A state is left only when its condition fails by this factor (> 1): hysteresis
     /// against measurement noise.
     pub hysteresis: f64,
-    /// A connected pair counts as lost when its held condition fails by this factor (≥ 1):
-    /// a margin for pose noise only — the simulator and the mechanism let go at factor 1, so
-    /// a loose factor would keep counting a pair that has come apart.
+    /// A connected anchor pair counts as lost when its held condition fails by this factor
+    /// (≥ 1): a margin for pose noise only — the simulator and the mechanism let go at factor
+    /// 1, so a loose factor would keep counting a pair that has come apart.
     pub release: f64,
     /// The same for a knob pair. A knob holds until a person lifts it (THESIS 5.5.3: it holds
     /// more than robots pull; the simulator never lets go of one), so this only has to catch
-    /// a knob out of its hole: at 2 its gap limit is the knob's length (3 mm). At 1.5 a
-    /// driven mesh's knob pairs were counted lost 12 times in 96 lockstep runs that the
-    /// simulator still held, 1.5–1.8 mm along their holes (its knob link is a position
-    /// projection that gives under load).
+    /// a knob out of its hole: knob length / seat gap (2 by default), the gap limit is the
+    /// knob's length. At 1.5 a driven mesh's knob pairs were counted lost 12 times in 96
+    /// lockstep runs that the simulator still held, 1.5–1.8 mm along their holes (its knob
+    /// link is a position projection that gives under load).
     pub knob_release: f64,
     /// Time the insertion must hold before the pair counts as connected (s).
     pub confirm_s: f64,
@@ -70,12 +70,12 @@ impl Default for PairTolerances {
 impl PairTolerances {
     /// Tolerances from the shared robot parameters (the geometry is read where a pair is
     /// measured).
-    pub fn from_params(_g: &Geometry, c: &Coupling) -> Self {
+    pub fn from_params(g: &Geometry, c: &Coupling) -> Self {
         PairTolerances {
             coupling: *c,
             hysteresis: 1.5,
             release: 1.5,
-            knob_release: 2.0,
+            knob_release: f64::from(g.knob_length) / f64::from(c.knob_seat_gap),
             confirm_s: 0.3,
         }
     }
@@ -521,6 +521,11 @@ mod tests {
     fn a_connected_knob_is_lost_only_out_of_its_hole() {
         let g = Geometry::default();
         let tol = PairTolerances::default();
+        assert!(
+            (tol.knob_release - 2.0).abs() < 1e-6,
+            "{}",
+            tol.knob_release
+        );
         let mut p = TrackedPair::new(knob_pair(), 0.0);
         let (place, b) = (knob_place, Pose2::new(0.0, 0.0, 0.0));
         for t in [0.0, 0.1, 0.2, 0.6] {
