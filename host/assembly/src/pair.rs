@@ -233,11 +233,8 @@ pub struct TrackedPair {
     pub since: f64,
     /// Last measurement, if any.
     pub last: Option<PairMeasure>,
-    /// Updates of the last [`SEATED_WINDOW`] in [`PairStatus::HeadAligned`] with the head
-    /// seen seated.
-    #[serde(default)]
-    pub seated_updates: u32,
-    /// The last updates in [`PairStatus::HeadAligned`], newest in bit 0 (1: head seen seated).
+    /// The last [`SEATED_WINDOW`] updates in [`PairStatus::HeadAligned`], newest in bit 0
+    /// (1: head seen seated).
     #[serde(default)]
     pub seated_history: u8,
 }
@@ -250,9 +247,14 @@ impl TrackedPair {
             status: PairStatus::Decoupled,
             since: t,
             last: None,
-            seated_updates: 0,
             seated_history: 0,
         }
+    }
+
+    /// Updates of the last [`SEATED_WINDOW`] in [`PairStatus::HeadAligned`] with the head
+    /// seen seated.
+    pub fn seated_updates(&self) -> u32 {
+        self.seated_history.count_ones()
     }
 
     /// Augmented (head) point of robot `a` in its body frame: anchor head or knob tip.
@@ -290,7 +292,6 @@ impl TrackedPair {
             });
             s.status = to;
             s.since = t;
-            s.seated_updates = 0;
             s.seated_history = 0;
         };
         // At most three steps per tick (decoupled → aligned → inserted, or a fall back).
@@ -311,8 +312,7 @@ impl TrackedPair {
                     let seated = is_inserted(kind, &m, tol, g, 1.0);
                     let window = (1u8 << SEATED_WINDOW) - 1;
                     self.seated_history = ((self.seated_history << 1) | u8::from(seated)) & window;
-                    self.seated_updates = self.seated_history.count_ones();
-                    if self.seated_updates >= SEATED_UPDATES {
+                    if self.seated_updates() >= SEATED_UPDATES {
                         go(self, PairStatus::HeadInserted);
                     } else if !seated && !is_aligned(kind, &m, tol, g, h) {
                         go(self, PairStatus::Decoupled);

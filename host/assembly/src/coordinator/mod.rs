@@ -1197,8 +1197,16 @@ mod tests {
     }
 
     /// A 2×2 mesh whose first row pair is connected, ticked until its side pair is active:
-    /// the coordinator, the robots, the tick, the row pair and the side pair's index.
-    fn row_formed_side_next() -> (Coordinator, Vec<RobotState>, Tick, PlannedPair, usize) {
+    /// the coordinator, the robots, the tick, the row pair, the side pair's index and the
+    /// robot outside the row that joins by it.
+    fn row_formed_side_next() -> (
+        Coordinator,
+        Vec<RobotState>,
+        Tick,
+        PlannedPair,
+        usize,
+        RobotId,
+    ) {
         let mut c = coordinator();
         let robots = four_apart();
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
@@ -1223,22 +1231,22 @@ mod tests {
         let tick = c.tick(1.0, &mixed);
         assert_eq!(tick.active.len(), 1, "{:?}", tick.active);
         let side = tick.active[0];
-        (c, mixed, tick, first, side)
+        let sp = c.pairs()[side].pair;
+        let lone = if sp.a == first.a || sp.a == first.b {
+            sp.b
+        } else {
+            sp.a
+        };
+        (c, mixed, tick, first, side, lone)
     }
 
     #[test]
     fn a_lone_robot_docks_at_a_row_instead_of_joining_two_rows_sideways() {
-        let (c, _, tick, first, side) = row_formed_side_next();
+        let (c, _, tick, first, side, lone) = row_formed_side_next();
         // Next: the side (knob) pair, not the other row's anchor pair.
-        let side = c.pairs()[side].pair;
-        assert_eq!(side.kind, PairType::KnobHole);
+        assert_eq!(c.pairs()[side].pair.kind, PairType::KnobHole);
         // Its robot outside the row docks (drives directly or goes to the approach's start);
         // the row holds still.
-        let lone = if side.a == first.a || side.a == first.b {
-            side.b
-        } else {
-            side.a
-        };
         assert!(
             matches!(role_of(&tick, lone), Role::Dock { .. } | Role::GoTo { .. }),
             "{:?}",
@@ -1251,17 +1259,11 @@ mod tests {
 
     #[test]
     fn a_docking_robot_stays_off_the_side_until_it_has_passed_the_wrong_hole() {
-        let (mut c, mixed, _, first, i) = row_formed_side_next();
-        let side = c.pairs()[i].pair;
-        let lone = if side.a == first.a || side.a == first.b {
-            side.b
-        } else {
-            side.a
-        };
-        // On the approach line, parallel to the place, `before` short of it and 3 mm out.
+        let (mut c, mixed, _, _, i, lone) = row_formed_side_next();
         let frame = c.dock_frame(i, lone).unwrap();
         let (_, ny) = frame.normal;
-        // (v, turn towards the side) at `before` short of the place and `yaw` towards the side.
+        // (v, turn towards the side) on the approach line, 3 mm out, `before` short of the
+        // place and `yaw` towards the side.
         let mut drive_at = |t: f64, before: f64, yaw: f64| {
             let pose = frame
                 .fin
@@ -1302,7 +1304,7 @@ mod tests {
 
     #[test]
     fn an_anchor_approach_beside_a_row_keeps_off_the_robots_where_they_are() {
-        let (mut c, mixed, _, first, side) = row_formed_side_next();
+        let (mut c, mixed, _, first, side, _) = row_formed_side_next();
         let kinds: BTreeMap<_, _> = mixed.iter().map(|r| (r.id, r.kind)).collect();
         let goal = at_goals(&c, &kinds);
         // The other row's anchor pair: its robot in the side pair is in place; the other one

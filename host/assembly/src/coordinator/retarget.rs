@@ -69,7 +69,7 @@ impl Coordinator {
             // A pair seen seated itself stays: it needs `SEATED_UPDATES` of the last
             // `SEATED_WINDOW` updates seated to count as inserted, and re-targeting would
             // start it afresh.
-            if tp.seated_updates > 0 {
+            if tp.seated_updates() > 0 {
                 continue;
             }
             let seated = self.side_alternatives(i).into_iter().find(|alt| {
