@@ -120,6 +120,17 @@ pub const MAINTAIN_HEADING_FORM: f64 = 0.008;
 /// in a turn: ≈ 0.2 rad at a 0.3 m radius); the line passed the same from 1e-4 to 0.003.
 pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
 
+/// Heading weight (relative to position) of a robot hanging at a connected anchor while its
+/// assembly moves (its role aligns it with its partner, see `Coordinator::tasks`) when that
+/// assembly is a mesh (a connected knob pair makes it rigid in part): keeps it steering in
+/// line like a knob pair does. A robot pushed along at an anchor (a pilot at the front of a
+/// driving mesh) swings into the anchor's play and turns the mesh after it. Lockstep, the
+/// grown demo over seeds 1–96 at 0 and 20 ms (2026-12-02): 109 of 192 runs passed at the
+/// anchors' 1e-3, 26 turning off their line; 124 at 0.1 (15 turning). A train keeps 1e-3: it
+/// bends in turns (0.1 for every hanging robot: the driving line 17 of 48 instead of 47; for
+/// trains only while forming: the 2×2 mesh 91 of 96 instead of 94, the grown demo 121).
+pub const HANG_HEADING: f64 = 0.1;
+
 /// Gate settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GateConfig {
@@ -241,7 +252,8 @@ impl AssemblyController {
     }
 
     /// THESIS (4.5)–(4.7), (5.25), (5.26): a task's cost terms.
-    fn costs(role: &Role) -> Vec<CostTerm> {
+    /// Cost terms of a role; `in_mesh`: the robot's assembly has a connected knob pair.
+    fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
         let lead = StageWeights {
             stage: 1.0e3,
             terminal: 1.0e4,
@@ -259,6 +271,7 @@ impl AssemblyController {
                 partner_point,
                 relative_yaw,
                 kind,
+                phase,
                 ..
             } => vec![CostTerm::AlignPair {
                 partner: *partner,
@@ -275,6 +288,9 @@ impl AssemblyController {
                 // needs the heading as much as the position.
                 heading: match kind {
                     PairType::KnobHole => 1.0e-1,
+                    PairType::AnchorOpening if in_mesh && *phase == PairStatus::Connected => {
+                        HANG_HEADING
+                    }
                     PairType::AnchorOpening => 1.0e-3,
                 },
             }],
@@ -481,6 +497,17 @@ impl Controller for AssemblyController {
         let mut straight = BTreeSet::new();
         let mut wait = BTreeSet::new();
         let mut segments: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        // Assemblies with a connected knob pair: rigid in part (a mesh), not a train.
+        let segment_of: BTreeMap<RobotId, usize> =
+            tick.tasks.iter().map(|t| (t.robot, t.segment)).collect();
+        let meshes: BTreeSet<usize> = self
+            .runner
+            .coordinator()
+            .pairs()
+            .iter()
+            .filter(|p| p.status == PairStatus::Connected && p.pair.kind == PairType::KnobHole)
+            .filter_map(|p| segment_of.get(&p.pair.a).copied())
+            .collect();
         for task in &tick.tasks {
             let Some(s) = by_id.get(&task.robot) else {
                 continue;
@@ -498,7 +525,7 @@ impl Controller for AssemblyController {
                 id: task.robot,
                 pose: Pose::new(s.pose.x, s.pose.y, s.pose.yaw),
                 limits: self.limits(s.kind),
-                costs: Self::costs(&task.role),
+                costs: Self::costs(&task.role, meshes.contains(&task.segment)),
             });
         }
         // Partners/leaders that are not in this tick's inputs would be rejected by the MPC.
@@ -988,5 +1015,27 @@ mod tests {
         assert!(w[0].starts_with("step 2 'creep' (line 3)"), "{}", w[0]);
         assert!(w[1].starts_with("step 4 "), "{}", w[1]);
         assert!(w[0].contains(&format!("{slowest:.3} m/s")), "{}", w[0]);
+    }
+
+    #[test]
+    fn a_robot_hanging_at_an_anchor_keeps_in_line_in_a_mesh_and_bends_in_a_train() {
+        let hanging = |phase| Role::Align {
+            pair: 0,
+            partner: 2,
+            own_point: [0.04, 0.0],
+            partner_point: [-0.04, 0.0],
+            relative_yaw: 0.0,
+            kind: PairType::AnchorOpening,
+            phase,
+        };
+        let heading = |role: &Role, in_mesh| match AssemblyController::costs(role, in_mesh)[..] {
+            [CostTerm::AlignPair { heading, .. }] => heading,
+            ref c => panic!("costs {c:?}"),
+        };
+        let moving = hanging(PairStatus::Connected);
+        assert_eq!(heading(&moving, true), HANG_HEADING);
+        // A train bends in turns; an anchor being inserted is steered by its position.
+        assert!(heading(&moving, false) < HANG_HEADING / 10.0);
+        assert!(heading(&hanging(PairStatus::HeadAligned), true) < HANG_HEADING / 10.0);
     }
 }
