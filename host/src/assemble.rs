@@ -131,6 +131,15 @@ pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
 /// trains only while forming: the 2×2 mesh 91 of 96 instead of 94, the grown demo 121).
 pub const HANG_HEADING: f64 = 0.1;
 
+/// Heading weight (relative to position) of a held member of a grown assembly keeping its
+/// pose (`Role::Keep`): it turns back when a robot docking at its side turns it about its
+/// anchor. Lockstep, the grown demo over seeds 1–96 at 0 and 20 ms (2026-12-02): 124 of 192
+/// runs passed with held robots at zero speed, 142 at 0.01 (timeouts 49 → 45, turning off the
+/// line 15 → 4); seeds 1–48: 73 of 96 at 0.003, 74 at 0.01, 68 at 0.03, 65 at 0.1. Keeping
+/// the held robots of every assembly, not only a grown one, broke couplings in the 2×2 mesh
+/// (41 of 48 instead of 48).
+pub const KEEP_HEADING: f64 = 0.01;
+
 /// Gate settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GateConfig {
@@ -265,6 +274,11 @@ impl AssemblyController {
         let p = |q: &Pose2| Pose::new(q.x, q.y, q.yaw);
         match role {
             Role::Hold | Role::Wait => Vec::new(),
+            Role::Keep { pose } => vec![CostTerm::FollowTrajectory {
+                reference: vec![p(pose)],
+                weights: lead,
+                heading: KEEP_HEADING,
+            }],
             Role::Align {
                 partner,
                 own_point,
@@ -1037,5 +1051,20 @@ mod tests {
         // A train bends in turns; an anchor being inserted is steered by its position.
         assert!(heading(&moving, false) < HANG_HEADING / 10.0);
         assert!(heading(&hanging(PairStatus::HeadAligned), true) < HANG_HEADING / 10.0);
+    }
+
+    #[test]
+    fn a_kept_robot_is_driven_back_to_its_pose_and_a_held_one_is_not_driven() {
+        let pose = Pose2::new(0.1, -0.2, 0.3);
+        match &AssemblyController::costs(&Role::Keep { pose }, false)[..] {
+            [CostTerm::FollowTrajectory {
+                reference, heading, ..
+            }] => {
+                assert_eq!(reference, &vec![Pose::new(0.1, -0.2, 0.3)]);
+                assert_eq!(*heading, KEEP_HEADING);
+            }
+            c => panic!("costs {c:?}"),
+        }
+        assert!(AssemblyController::costs(&Role::Hold, false).is_empty());
     }
 }

@@ -35,6 +35,12 @@ use std::collections::{BTreeMap, BTreeSet};
 pub enum Role {
     /// Stand still (no task; keep existing couplings).
     Hold,
+    /// Stand still at `pose`, turning back to it when pushed (an MPC pose goal): a member
+    /// of the assembly being grown while a robot joins it ([`Coordinator::keep_grown`]).
+    Keep {
+        /// Where the robot was when it was first held.
+        pose: Pose2,
+    },
     /// Not driven: a pilot that is not yet part of an assembly with a non-pilot (THESIS 3.5.2),
     /// or a robot whose pair must wait (convex-first).
     Wait,
@@ -491,6 +497,9 @@ pub struct Coordinator {
     /// Growing: where the partner of a side pair stood when its assembly first drove ahead to
     /// straighten, per pair.
     straighten_from: std::cell::RefCell<BTreeMap<usize, [f64; 2]>>,
+    /// Growing: where each held member of the grown assembly was first held
+    /// ([`Coordinator::keep_grown`]).
+    kept_at: BTreeMap<RobotId, Pose2>,
     /// Time of the current tick (s).
     now: f64,
     /// Closed-loop wiggles: the turning sense of every wiggling robot.
@@ -520,6 +529,7 @@ impl Coordinator {
             unplanned: BTreeMap::new(),
             grow: None,
             straighten_from: Default::default(),
+            kept_at: BTreeMap::new(),
             now: 0.0,
             wiggle_turns: BTreeMap::new(),
         }
@@ -999,7 +1009,8 @@ impl Coordinator {
                 }
             }
         }
-        let (tasks, active) = self.tasks(t, &segments);
+        let (mut tasks, active) = self.tasks(t, &segments);
+        self.keep_grown(&mut tasks, &segments);
         let maintain = self
             .pairs
             .iter()
@@ -1026,6 +1037,31 @@ impl Coordinator {
             complete,
             events: std::mem::take(&mut self.pending),
         }
+    }
+
+    /// Growing: the held members of the grown assembly keep where they were first held
+    /// ([`Role::Keep`]). A robot docking at its side turned its end robot about its anchor
+    /// (rubbing along it, and steering by that robot's pose), and held at zero speed, the
+    /// row stayed bent to the anchors' play, its corner in the docking lane.
+    fn keep_grown(&mut self, tasks: &mut [RobotTask], segments: &BTreeMap<RobotId, usize>) {
+        let home = match (&self.mode, self.grow) {
+            (Mode::Form, Some(seed)) => segments.get(&seed).copied(),
+            _ => None,
+        };
+        let size = home.map_or(0, |h| segments.values().filter(|&&s| s == h).count());
+        let mut kept = BTreeMap::new();
+        for task in tasks.iter_mut() {
+            if task.role != Role::Hold || Some(task.segment) != home || size < 2 {
+                continue;
+            }
+            let Some(now) = self.robots.get(&task.robot).map(|k| k.pose) else {
+                continue;
+            };
+            let pose = self.kept_at.get(&task.robot).copied().unwrap_or(now);
+            kept.insert(task.robot, pose);
+            task.role = Role::Keep { pose };
+        }
+        self.kept_at = kept;
     }
 
     fn kind_of(&self, id: RobotId) -> RobotKind {
@@ -1453,6 +1489,61 @@ mod tests {
             .filter(|&id| matches!(role_of(&tick, id), Role::Dock { .. } | Role::GoTo { .. }))
             .collect();
         assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
+    }
+
+    #[test]
+    fn a_grown_row_pushed_while_a_robot_joins_it_turns_back_to_where_it_was_held() {
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.2, 1.0),
+            np(3, -0.3, 0.3, 2.0),
+            np(4, 0.2, -0.3, -1.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
+        // The first robot to join the pilot is coupled to it, where the plan puts it.
+        let active = c.tick(0.0, &robots).active[0];
+        let first = c.pairs()[active].pair;
+        let joined = if first.a == 1 { first.b } else { first.a };
+        let goal = at_goals(&c, &kinds);
+        let mut now: Vec<RobotState> = robots
+            .iter()
+            .map(|r| match r.id {
+                id if id == joined => *goal.iter().find(|g| g.id == id).unwrap(),
+                _ => *r,
+            })
+            .collect();
+        for k in 1..=10 {
+            c.tick(0.1 * k as f64, &now);
+        }
+        assert!(c
+            .pairs()
+            .iter()
+            .any(|p| p.pair == first && p.status == PairStatus::Connected));
+        c.tick(1.1, &now);
+        let tick = c.tick(1.2, &now);
+        let held = |tick: &Tick, id| match role_of(tick, id) {
+            Role::Keep { pose } => *pose,
+            r => panic!("robot {id}: {r:?}"),
+        };
+        let at = held(&tick, joined);
+        assert_eq!(at, now.iter().find(|r| r.id == joined).unwrap().pose);
+        held(&tick, 1);
+        // Pushed (turned about its anchor by the next robot docking): it keeps the pose
+        // where it was first held, to turn back to.
+        for r in now.iter_mut().filter(|r| r.id == joined) {
+            r.pose.yaw += 0.1;
+        }
+        let tick = c.tick(1.3, &now);
+        assert_eq!(held(&tick, joined), at);
+        // The robot that joins next is not held.
+        assert!(tick
+            .tasks
+            .iter()
+            .filter(|t| t.robot != 1 && t.robot != joined)
+            .all(|t| !matches!(t.role, Role::Keep { .. })));
     }
 
     #[test]
