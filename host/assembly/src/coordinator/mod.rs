@@ -1547,6 +1547,61 @@ mod tests {
     }
 
     #[test]
+    fn growing_brings_a_coupled_group_outside_the_grown_assembly_to_it() {
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.2, 1.0),
+            np(3, -0.3, 0.3, 2.0),
+            np(4, 0.2, -0.3, -1.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        let slots = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap()
+            .slot_robot
+            .clone();
+        // The robots on the far side of the pilot coupled to each other in their places of
+        // the line, but 0.3 m to the side (their coupling out of turn, or the one to the
+        // pilot's side came apart); the near side joined: no lone robot is left to join.
+        let at = slots.iter().position(|&id| id == 1).unwrap();
+        let far: Vec<RobotId> = if at < slots.len() / 2 {
+            slots[at + 1..].to_vec()
+        } else {
+            slots[..at].to_vec()
+        };
+        assert!(far.len() >= 2, "{slots:?}");
+        let off: Vec<RobotState> = at_goals(&c, &kinds)
+            .into_iter()
+            .map(|mut r| {
+                if far.contains(&r.id) {
+                    r.pose.y += 0.3;
+                }
+                r
+            })
+            .collect();
+        for k in 0..=10 {
+            c.tick(0.1 * k as f64, &off);
+        }
+        let segments = c.segments();
+        assert!(
+            far.iter().all(|id| segments[id] == segments[&far[0]])
+                && slots
+                    .iter()
+                    .all(|id| far.contains(id) || segments[id] == segments[&1]),
+            "{segments:?}"
+        );
+        // The group is brought to the grown assembly by their anchor pair; it does not wait.
+        let tick = c.tick(1.1, &off);
+        assert_eq!(tick.active.len(), 1, "{:?}", tick.tasks);
+        let p = c.pairs()[tick.active[0]].pair;
+        assert!(far.contains(&p.a) != far.contains(&p.b), "{p:?}");
+        assert!(tick.tasks.iter().any(|t| far.contains(&t.robot)
+            && !matches!(t.role, Role::Wait | Role::Hold | Role::Keep { .. })));
+    }
+
+    #[test]
     fn lone_pilot_waits_and_non_pilot_approaches_on_its_axis() {
         let mut c = coordinator();
         let mut robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];

@@ -222,7 +222,39 @@ impl Coordinator {
                 bucket(i).cmp(&bucket(j)).then(d(i, a).total_cmp(&d(j, b)))
             })
             .map(|(i, _)| vec![i])
+            .or_else(|| self.rejoin_grown(segments, home).map(|i| vec![i]))
             .unwrap_or_default()
+    }
+
+    /// Growing, when no lone robot can join: a pair that joins another assembly to the grown
+    /// one and keeps the plan completable ([`Coordinator::startable`]: an anchor pair, the
+    /// other assembly moving), the nearest first. Such assemblies appear when a coupling of
+    /// the grown one comes apart, or a planned pair between two robots outside it couples out
+    /// of turn (a robot docking beside the assembly backing into one waiting nearby); without
+    /// this every robot waited until the step timed out.
+    fn rejoin_grown(&self, segments: &BTreeMap<RobotId, usize>, home: usize) -> Option<usize> {
+        (0..self.pairs.len())
+            .filter(|&i| {
+                !self.released.contains(&i) && self.pairs[i].status != PairStatus::Connected
+            })
+            .filter(|&i| {
+                let p = &self.pairs[i].pair;
+                let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
+                sa.is_some() && sb.is_some() && sa != sb && (sa == Some(&home) || sb == Some(&home))
+            })
+            .filter(|&i| self.startable(segments, i, true))
+            .min_by(|&i, &j| {
+                // A pair already in progress (the anchor at the mouth) first.
+                let waiting = |k: usize| self.pairs[k].status == PairStatus::Decoupled;
+                let d = |k: usize| {
+                    let p = &self.pairs[k].pair;
+                    match (self.robots.get(&p.a), self.robots.get(&p.b)) {
+                        (Some(a), Some(b)) => (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y),
+                        _ => f64::INFINITY,
+                    }
+                };
+                waiting(i).cmp(&waiting(j)).then(d(i).total_cmp(&d(j)))
+            })
     }
 
     /// Can pair `i` be connected now, given robot → segment `merged`, and every other
