@@ -260,8 +260,8 @@ impl AssemblyController {
         Limits::from_drive(&self.params.robot(kind).drive)
     }
 
-    /// THESIS (4.5)–(4.7), (5.25), (5.26): a task's cost terms.
-    /// Cost terms of a role; `in_mesh`: the robot's assembly has a connected knob pair.
+    /// THESIS (4.5)–(4.7), (5.25), (5.26): a task's cost terms; `in_mesh`: the robot's
+    /// assembly has a connected knob pair.
     fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
         let lead = StageWeights {
             stage: 1.0e3,

@@ -1491,8 +1491,15 @@ mod tests {
         assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
     }
 
-    #[test]
-    fn a_grown_row_pushed_while_a_robot_joins_it_turns_back_to_where_it_was_held() {
+    /// Pilot 1 and three non-pilots scattered round it, growing a line round the pilot: the
+    /// coordinator, the robots, their kinds and the line's robots in slot order.
+    #[allow(clippy::type_complexity)]
+    fn line_grown_round_pilot_1() -> (
+        Coordinator,
+        Vec<RobotState>,
+        BTreeMap<RobotId, RobotKind>,
+        Vec<RobotId>,
+    ) {
         let mut c = coordinator();
         let mut robots = vec![
             np(1, 0.0, 0.0, 0.0),
@@ -1501,8 +1508,18 @@ mod tests {
             np(4, 0.2, -0.3, -1.0),
         ];
         robots[0].kind = RobotKind::Pilot;
-        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
-        c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
+        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
+        let slots = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap()
+            .slot_robot
+            .clone();
+        (c, robots, kinds, slots)
+    }
+
+    #[test]
+    fn a_grown_row_pushed_while_a_robot_joins_it_turns_back_to_where_it_was_held() {
+        let (mut c, robots, kinds, _) = line_grown_round_pilot_1();
         // The first robot to join the pilot is coupled to it, where the plan puts it.
         let active = c.tick(0.0, &robots).active[0];
         let first = c.pairs()[active].pair;
@@ -1548,20 +1565,7 @@ mod tests {
 
     #[test]
     fn growing_brings_a_coupled_group_outside_the_grown_assembly_to_it() {
-        let mut c = coordinator();
-        let mut robots = vec![
-            np(1, 0.0, 0.0, 0.0),
-            np(2, 0.3, 0.2, 1.0),
-            np(3, -0.3, 0.3, 2.0),
-            np(4, 0.2, -0.3, -1.0),
-        ];
-        robots[0].kind = RobotKind::Pilot;
-        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
-        let slots = c
-            .form_grown(0.0, ShapeSpec::Line, &robots, None)
-            .unwrap()
-            .slot_robot
-            .clone();
+        let (mut c, _, kinds, slots) = line_grown_round_pilot_1();
         // The robots on the far side of the pilot coupled to each other in their places of
         // the line, but 0.3 m to the side (their coupling out of turn, or the one to the
         // pilot's side came apart); the near side joined: no lone robot is left to join.
