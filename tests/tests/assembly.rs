@@ -69,7 +69,8 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-12-01: 23 of 25 loopback runs in session 7, 4 of \
-            them with both cores loaded, 14 of 15 in session 8, 5 during a CI run; the \
+            them with both cores loaded, 14 of 15 in session 8, 5 during a CI run, 4 of 4 in \
+            session 9 (2026-12-02); the \
             failures: the join of the two 2-robot segments circled for 40 s, and twice robot \
             2 ended the turn 0.105 / 0.164 rad ahead of robot 1; earlier versions 12 of 13, \
             failing when that join popped a pair or rocked in its seat); the lockstep version \
