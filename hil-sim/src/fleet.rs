@@ -77,6 +77,7 @@ enum Command {
     Online(RobotId, bool),
     Impair(RobotId, Impairments),
     Place(RobotId, Pose),
+    LiftKnobs(Vec<RobotId>),
 }
 
 struct Shared {
@@ -181,6 +182,11 @@ impl SimFleet {
         lock(&self.shared.commands).push(Command::Place(id, pose));
     }
 
+    /// Lift the knob pairs among robots `ids` apart by hand ([`World::lift_knobs`]).
+    pub fn lift_knobs(&self, ids: &[RobotId]) {
+        lock(&self.shared.commands).push(Command::LiftKnobs(ids.to_vec()));
+    }
+
     /// Stop the simulation thread and close the sockets.
     pub fn stop(mut self) {
         self.halt();
@@ -223,6 +229,9 @@ fn run(
                 }
                 Command::Place(id, p) => {
                     world.place(id, p);
+                }
+                Command::LiftKnobs(ids) => {
+                    world.lift_knobs(&ids);
                 }
             }
         }

@@ -402,6 +402,30 @@ impl Mechanics {
         self.links.len() != n
     }
 
+    /// Remove every coupled knob link between two of `members` (a person lifting the knob
+    /// pairs apart, THESIS 5.5.3: robots cannot pull a knob out of its hole). Returns the
+    /// removed links (a, b).
+    pub fn lift_knobs(&mut self, members: &[usize]) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        self.links.retain(|l| {
+            let hit = l.kind == LinkKind::Knob
+                && l.state == LinkState::Coupled
+                && members.contains(&l.a)
+                && members.contains(&l.b);
+            if hit {
+                out.push((l.a, l.b));
+            }
+            !hit
+        });
+        out
+    }
+
+    /// Groups of bodies joined by the remaining links (any kind, any state): a label per
+    /// body, equal within a group.
+    pub fn linked_groups(&self, n: usize) -> Vec<usize> {
+        self.groups(n, |_| true)
+    }
+
     fn linked(&self, i: usize, j: usize) -> bool {
         self.links
             .iter()
@@ -567,6 +591,11 @@ impl Mechanics {
     /// their places through the couplings, so their bodies do not also push each other (a
     /// mesh's neighbours touch by design; contacts and couplings would fight).
     fn rigid_groups(&self, n: usize) -> Vec<usize> {
+        self.groups(n, |l| l.state == LinkState::Coupled)
+    }
+
+    /// Union–find over the links that pass `keep`: a group label per body.
+    fn groups(&self, n: usize, keep: impl Fn(&Link) -> bool) -> Vec<usize> {
         let mut g: Vec<usize> = (0..n).collect();
         fn find(g: &mut [usize], mut x: usize) -> usize {
             while g[x] != x {
@@ -575,8 +604,8 @@ impl Mechanics {
             }
             x
         }
-        for l in &self.links {
-            if l.state == LinkState::Coupled && l.a < n && l.b < n {
+        for l in self.links.iter().filter(|l| keep(l)) {
+            if l.a < n && l.b < n {
                 let (ra, rb) = (find(&mut g, l.a), find(&mut g, l.b));
                 g[ra] = rb;
             }

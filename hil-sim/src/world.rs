@@ -23,7 +23,7 @@ use puzzlebot_firmware_core::{
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{RobotKind, RobotParams};
 use puzzlebot_protocol::{FirmwareVersion, FleetKey, Nonce, RobotId, MAX_DATAGRAM};
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 
 /// Firmware version the simulated robots announce.
 pub const SIM_FIRMWARE_VERSION: FirmwareVersion = FirmwareVersion {
@@ -241,6 +241,10 @@ fn trig_of(yaw: f64) -> [f64; 2] {
     let (s, c) = yaw.sin_cos();
     [s, c]
 }
+
+/// How far a person sets lifted knob pairs apart (m): beyond the 3 mm knob, so the host
+/// measures them released.
+pub const LIFT_APART: f64 = 0.006;
 
 /// The lockstep simulation (see the module documentation).
 #[derive(Debug, Clone)]
@@ -744,6 +748,61 @@ impl World {
             }
             None => false,
         }
+    }
+
+    /// A person lifts the knob pairs among robots `ids` apart (THESIS 5.5.3: a knob holds
+    /// more than the robots can pull, and only the anchors can be wiggled open): every coupled
+    /// knob link between two of them is removed, and the groups still joined by anchors
+    /// (the rows) are set down [`LIFT_APART`] further apart across their sides, at rest.
+    /// Returns the lifted pairs (knob robot, hole robot).
+    pub fn lift_knobs(&mut self, ids: &[RobotId]) -> Vec<(RobotId, RobotId)> {
+        let members: Vec<usize> = ids.iter().filter_map(|&id| self.index(id)).collect();
+        let lifted = self.mech.lift_knobs(&members);
+        if lifted.is_empty() {
+            return Vec::new();
+        }
+        // Each row moves by its neighbour's shift plus LIFT_APART towards its own side
+        // (the hole robot sits on the knob robot's left), breadth-first from the first row.
+        let groups = self.mech.linked_groups(self.bodies.len());
+        let mut shift: BTreeMap<usize, V2> = BTreeMap::new();
+        shift.insert(groups[lifted[0].0], [0.0, 0.0]);
+        let mut grew = true;
+        while grew {
+            grew = false;
+            for &(a, b) in &lifted {
+                let (ga, gb) = (groups[a], groups[b]);
+                let left = self.bodies[a].pose.rotate([0.0, LIFT_APART]);
+                let next = match (shift.get(&ga), shift.get(&gb)) {
+                    (Some(s), None) => Some((gb, [s[0] + left[0], s[1] + left[1]])),
+                    (None, Some(s)) => Some((ga, [s[0] - left[0], s[1] - left[1]])),
+                    _ => None,
+                };
+                if let Some((g, s)) = next {
+                    shift.insert(g, s);
+                    grew = true;
+                }
+            }
+        }
+        let t_us = self.time_us;
+        for i in 0..self.robots.len() {
+            if let Some(s) = shift.get(&groups[i]).filter(|s| s[0] != 0.0 || s[1] != 0.0) {
+                let p = self.robots[i].pose;
+                self.place(self.robots[i].id, Pose::new(p.x + s[0], p.y + s[1], p.yaw));
+            }
+        }
+        lifted
+            .into_iter()
+            .map(|(a, b)| {
+                let (a, b) = (self.robots[a].id, self.robots[b].id);
+                let kind = EventKind::Decoupled {
+                    kind: LinkKind::Knob,
+                    a,
+                    b,
+                };
+                self.events.push(SimEvent { t_us, kind });
+                (a, b)
+            })
+            .collect()
     }
 
     /// Place robot `id` at `pose` (at rest), as a person would. Returns false if unknown.

@@ -140,6 +140,70 @@ fn side_knobs_need_sub_millimetre_alignment_and_are_rigid_once_in() {
 }
 
 #[test]
+fn lifting_a_mesh_by_hand_frees_its_knobs_and_keeps_its_rows() {
+    // Two rows of two: 2 in front of 1 and 4 in front of 3 (anchors), row 3–4 on the left
+    // of row 1–2, offset by half a body (THESIS 5.2.2), knobs coupled where they meet.
+    let mut s = Scenario::grid(0, 1);
+    s.robots = vec![
+        robot(1, 0.0, 0.0),
+        robot(2, 0.057, 0.0),
+        robot(3, 0.0285, 0.05),
+        robot(4, 0.0855, 0.05),
+    ];
+    let anchor = |a, b| CouplingSpec {
+        kind: LinkKind::Anchor,
+        a,
+        b,
+    };
+    let knob = |a, b| CouplingSpec {
+        kind: LinkKind::Knob,
+        a,
+        b,
+    };
+    s.couplings = vec![
+        anchor(2, 1),
+        anchor(4, 3),
+        knob(1, 3),
+        knob(2, 3),
+        knob(2, 4),
+    ];
+    let mut w = World::new(&s, &key()).expect("world");
+    w.run_for(50_000);
+    let before = w.ground_truth();
+    assert!(
+        before.are_coupled(2, 3) && before.are_coupled(2, 1),
+        "{:?}",
+        w.links()
+    );
+    // Only the listed robots' knobs: none between 1 and 2 alone.
+    assert!(w.lift_knobs(&[1, 2]).is_empty());
+    let mut lifted = w.lift_knobs(&[1, 2, 3, 4]);
+    lifted.sort_unstable();
+    assert_eq!(lifted, vec![(1, 3), (2, 3), (2, 4)]);
+    w.run_for(50_000);
+    let t = w.ground_truth();
+    for (a, b) in [(1, 3), (2, 3), (2, 4)] {
+        assert!(
+            !t.are_coupled(a, b),
+            "{a}-{b} still coupled: {:?}",
+            w.links()
+        );
+        assert!(t.events.iter().any(|e| e.kind
+            == EventKind::Decoupled {
+                kind: LinkKind::Knob,
+                a,
+                b
+            }));
+    }
+    assert!(t.are_coupled(2, 1) && t.are_coupled(4, 3), "rows kept");
+    // The left row was set down further left, unturned; the right row stayed.
+    let (p1, p3) = (t.robot(1).unwrap().pose, t.robot(3).unwrap().pose);
+    assert!((p1.y - 0.0).abs() < 1e-4, "{p1:?}");
+    assert!(p3.y > 0.055 && p3.y < 0.058, "{p3:?}");
+    assert!(p3.yaw.abs() < 1e-3, "{p3:?}");
+}
+
+#[test]
 fn shipped_scenario_files_parse_and_build() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
     let mut n = 0;
