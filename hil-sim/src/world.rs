@@ -784,11 +784,20 @@ impl World {
             }
         }
         let t_us = self.time_us;
-        for i in 0..self.robots.len() {
-            if let Some(s) = shift.get(&groups[i]).filter(|s| s[0] != 0.0 || s[1] != 0.0) {
-                let p = self.robots[i].pose;
-                self.place(self.robots[i].id, Pose::new(p.x + s[0], p.y + s[1], p.yaw));
-            }
+        let moves: Vec<(RobotId, Pose)> = self
+            .robots
+            .iter()
+            .zip(&groups)
+            .filter_map(|(r, g)| {
+                let s = shift.get(g).filter(|s| s[0] != 0.0 || s[1] != 0.0)?;
+                Some((
+                    r.id,
+                    Pose::new(r.pose.x + s[0], r.pose.y + s[1], r.pose.yaw),
+                ))
+            })
+            .collect();
+        for (id, p) in moves {
+            self.place(id, p);
         }
         lifted
             .into_iter()
