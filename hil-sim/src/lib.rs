@@ -51,4 +51,4 @@ pub use mechanics::LinkKind;
 pub use mocap::MocapConfig;
 pub use radio::Impairments;
 pub use scenario::{CouplingSpec, RobotSpec, Scenario, ScenarioError};
-pub use world::{EventKind, GroundTruth, RobotTruth, SimEvent, World, WorldError};
+pub use world::{EventKind, GroundTruth, RobotTruth, SimEvent, World, WorldError, LIFT_APART};

@@ -242,9 +242,10 @@ fn trig_of(yaw: f64) -> [f64; 2] {
     [s, c]
 }
 
-/// How far a person sets lifted knob pairs apart (m): beyond the 3 mm knob, so the host
-/// measures them released.
-pub const LIFT_APART: f64 = 0.006;
+/// How far a person sets the rows of a lifted mesh apart (m): clear of the 3 mm knobs (the
+/// host measures them released) and of the rows' wiggles (a robot turning 0.35 rad about its
+/// anchor sweeps its front corners about 1 cm sideways).
+pub const LIFT_APART: f64 = 0.03;
 
 /// The lockstep simulation (see the module documentation).
 #[derive(Debug, Clone)]

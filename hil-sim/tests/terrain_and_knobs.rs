@@ -199,7 +199,10 @@ fn lifting_a_mesh_by_hand_frees_its_knobs_and_keeps_its_rows() {
     // The left row was set down further left, unturned; the right row stayed.
     let (p1, p3) = (t.robot(1).unwrap().pose, t.robot(3).unwrap().pose);
     assert!((p1.y - 0.0).abs() < 1e-4, "{p1:?}");
-    assert!(p3.y > 0.055 && p3.y < 0.058, "{p3:?}");
+    assert!(
+        (p3.y - 0.05 - puzzlebot_sim::LIFT_APART).abs() < 2e-3,
+        "{p3:?}"
+    );
     assert!(p3.yaw.abs() < 1e-3, "{p3:?}");
 }
 

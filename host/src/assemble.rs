@@ -28,7 +28,7 @@ use puzzlebot_stability::puzzlebot::{Pair, PairKind, PuzzleAssembly, RobotPose};
 use puzzlebot_stability::{max_safe_advance, LimitedBy};
 use serde::Serialize;
 
-use crate::control::{Controller, FleetView, RunSummary};
+use crate::control::{Controller, FleetView, HandRequest, RunSummary};
 use crate::drive::{DriveMap, Twist};
 use crate::report::RunFolder;
 use crate::simulated::SimHarness;
@@ -198,6 +198,8 @@ pub struct AssemblyController {
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
     coupled: BTreeSet<RobotId>,
     finished_at: Option<f64>,
+    /// Hand requests not yet taken by the run ([`Controller::hand_requests`]).
+    hand: Vec<HandRequest>,
 }
 
 impl AssemblyController {
@@ -243,6 +245,7 @@ impl AssemblyController {
             log_milestones: true,
             coupled: BTreeSet::new(),
             finished_at: None,
+            hand: Vec::new(),
         })
     }
 
@@ -494,12 +497,25 @@ impl Controller for AssemblyController {
                 | EventKind::StepFinished { .. }
                 | EventKind::StepFailed { .. }
                 | EventKind::FormationComplete
+                | EventKind::LiftKnobs { .. }
                 | EventKind::RobotLost { .. }
                 | EventKind::Replanned { .. } => true,
                 _ => false,
             };
             if milestone && self.log_milestones {
                 tracing::info!(t = format!("{:.1}", e.t), event = %serde_json::to_string(&e.kind).unwrap_or_default(), "assembly");
+            }
+        }
+        for e in &tick.events {
+            if let EventKind::LiftKnobs { robots, pairs } = &e.kind {
+                tracing::warn!(
+                    "lift the knob pairs {pairs:?} among robots {robots:?} apart by hand and \
+                     set the rows down a few centimetres apart (knobs hold more than the \
+                     robots can pull, THESIS 5.5.3); the anchors are wiggled open after"
+                );
+                self.hand.push(HandRequest::LiftKnobs {
+                    robots: robots.clone(),
+                });
             }
         }
         self.events.extend(tick.events.iter().cloned());
@@ -654,6 +670,10 @@ impl Controller for AssemblyController {
 
     fn stabilise(&self, id: RobotId) -> bool {
         !self.coupled.contains(&id)
+    }
+
+    fn hand_requests(&mut self) -> Vec<HandRequest> {
+        std::mem::take(&mut self.hand)
     }
 }
 

@@ -68,7 +68,26 @@ pub trait Controller: Send {
     fn stabilise(&self, _id: RobotId) -> bool {
         true
     }
+    /// What the controller needs a person to do since the last call (e.g. lift knob pairs
+    /// apart): the run logs it, and a simulated fleet's hand does it.
+    fn hand_requests(&mut self) -> Vec<HandRequest> {
+        Vec::new()
+    }
 }
+
+/// Work for a person's hands (THESIS 5.5.3: knob pairs hold until lifted apart).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub enum HandRequest {
+    /// Lift the knob pairs among these robots apart and set the groups still joined by
+    /// anchors (the rows) down a few millimetres apart.
+    LiftKnobs {
+        /// The robots.
+        robots: Vec<RobotId>,
+    },
+}
+
+/// A simulated fleet's hand: does a [`HandRequest`] in the simulator.
+pub type Hand = Box<dyn FnMut(&HandRequest) + Send>;
 
 /// A reference path with a trapezoidal speed profile.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -397,6 +416,8 @@ pub struct ControlLoop {
     pub options: LoopOptions,
     /// Ground truth for error metrics (simulation); poses are used otherwise.
     pub truth: Option<TruthProbe>,
+    /// A simulated fleet's hand for the controller's [`HandRequest`]s (none: a person's).
+    pub hand: Option<Hand>,
 }
 
 struct PerRobot {
@@ -422,6 +443,7 @@ impl ControlLoop {
             params: Box::new(params),
             options: LoopOptions::default(),
             truth: None,
+            hand: None,
         }
     }
 
@@ -502,6 +524,11 @@ impl ControlLoop {
             }
             if now >= next_ctrl {
                 desired = controller.update(&view);
+                for r in controller.hand_requests() {
+                    if let Some(hand) = self.hand.as_mut() {
+                        hand(&r);
+                    }
+                }
                 next_ctrl += ctrl_period;
                 if next_ctrl < now {
                     next_ctrl = now + ctrl_period;

@@ -17,7 +17,7 @@ use puzzlebot_protocol::pose::BodyPose;
 use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
 use puzzlebot_sim::{RobotTruth, Scenario, SimEvent, World};
 
-use crate::control::{Controller, FleetView, LoopOptions, RobotView};
+use crate::control::{Controller, FleetView, HandRequest, LoopOptions, RobotView};
 use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
 
 /// The host side of every robot's session, in process.
@@ -287,6 +287,13 @@ impl Lockstep {
                     next_ctl += ctl_period_us;
                     hook(&mut self.world, t);
                     let new_cmds = ctl.update(&view);
+                    for r in ctl.hand_requests() {
+                        match r {
+                            HandRequest::LiftKnobs { robots } => {
+                                self.world.lift_knobs(&robots);
+                            }
+                        }
+                    }
                     // The controller's own latency (its solve time on a real host): its
                     // commands take effect `command_delay_us` later.
                     pending.push_back((now + self.command_delay_us, new_cmds));

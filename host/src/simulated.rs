@@ -11,7 +11,7 @@ use puzzlebot_params::{FleetParams, RobotKind, RobotParams};
 use puzzlebot_protocol::{messages::RobotId, FleetKey};
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
-use crate::control::{ControlLoop, TruthProbe};
+use crate::control::{ControlLoop, HandRequest, TruthProbe};
 use crate::link::{FleetLink, LinkConfig};
 use crate::pose::{Pbp1Decoder, PoseInput};
 
@@ -118,6 +118,10 @@ impl SimHarness {
             move |_, kind: RobotKind| -> RobotParams { params.robot(kind).clone() },
         );
         l.truth = Some(self.truth_probe());
+        let fleet = Arc::clone(&self.fleet);
+        l.hand = Some(Box::new(move |r: &HandRequest| match r {
+            HandRequest::LiftKnobs { robots } => fleet.lift_knobs(robots),
+        }));
         l
     }
 

@@ -36,5 +36,7 @@ pub use geom::{ConnPoint, PairType, Pose2};
 pub use info::{shape_info, ShapeInfo};
 pub use pair::{PairStatus, PairTolerances, TrackedPair, Transition};
 pub use puzzlebot_protocol::messages::RobotId;
-pub use scenario::{Behaviour, Grow, RunState, Scenario, ScenarioError, ScenarioRunner, Step};
+pub use scenario::{
+    Behaviour, Goal, Grow, RunState, Scenario, ScenarioError, ScenarioRunner, Step,
+};
 pub use shape::{GoalPair, Shape, ShapeError, ShapeSpec, SlotKind};

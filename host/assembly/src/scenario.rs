@@ -17,7 +17,7 @@
 //! decouple = {}            # every coupled pair; the anchor robots wiggle
 //!
 //! [[step]]
-//! disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 0.4 }] }
+//! disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 }] }
 //! ```
 //!
 //! Errors name the file, line, column and field.
@@ -164,11 +164,16 @@ struct DecoupleFile {
 #[serde(deny_unknown_fields)]
 struct GoalFile {
     robot: RobotId,
-    x: Finite,
-    y: Finite,
+    #[serde(default)]
+    x: Option<Finite>,
+    #[serde(default)]
+    y: Option<Finite>,
+    #[serde(default)]
+    ahead: Option<Finite>,
 }
 
-/// `disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, …], tolerance = 0.02 }`.
+/// `disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 }, …],
+/// tolerance = 0.02 }`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DisperseFile {
@@ -284,10 +289,40 @@ pub enum Behaviour {
     /// Every listed robot goes to its own goal (THESIS (4.6)).
     Disperse {
         /// Goals.
-        goals: BTreeMap<RobotId, Pose2>,
+        goals: BTreeMap<RobotId, Goal>,
         /// Done within this distance (m).
         tolerance: f64,
     },
+}
+
+/// A robot's own goal in a disperse step.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Goal {
+    /// A point (m).
+    At {
+        /// x (m).
+        x: f64,
+        /// y (m).
+        y: f64,
+    },
+    /// This far (m) along the robot's heading at the step's start: a pilot alone drives
+    /// only straight (THESIS 5.4.1), so its goal must lie on its axis.
+    Ahead(f64),
+}
+
+impl Goal {
+    /// The goal point for a robot at `pose` when the step starts.
+    pub fn resolve(&self, pose: &Pose2) -> Pose2 {
+        match *self {
+            Goal::At { x, y } => Pose2::new(x, y, 0.0),
+            Goal::Ahead(d) => Pose2::new(
+                pose.x + d * pose.yaw.cos(),
+                pose.y + d * pose.yaw.sin(),
+                pose.yaw,
+            ),
+        }
+    }
 }
 
 /// One step: a behaviour, an optional label and timeout.
@@ -579,10 +614,18 @@ impl Scenario {
                 let d = s.disperse.as_ref().expect("one behaviour given");
                 let mut goals = BTreeMap::new();
                 for (i, gl) in d.goal.iter().enumerate() {
-                    if goals
-                        .insert(gl.robot, Pose2::new(gl.x.0, gl.y.0, 0.0))
-                        .is_some()
-                    {
+                    let goal = match (gl.x, gl.y, gl.ahead) {
+                        (Some(x), Some(y), None) => Goal::At { x: x.0, y: y.0 },
+                        (None, None, Some(d)) => Goal::Ahead(d.0),
+                        _ => {
+                            return Err(invalid(
+                                span.clone(),
+                                field(&format!("disperse.goal[{i}]")),
+                                "give either x and y, or ahead".into(),
+                            ))
+                        }
+                    };
+                    if goals.insert(gl.robot, goal).is_some() {
                         return Err(invalid(
                             span.clone(),
                             field(&format!("disperse.goal[{i}].robot")),
@@ -800,7 +843,14 @@ impl ScenarioRunner {
                     },
                 )
             }
-            Behaviour::Disperse { goals, .. } => c.set_mode(t, Mode::Disperse { goals }),
+            Behaviour::Disperse { goals, .. } => {
+                // Robots not seen (lost) get no goal.
+                let goals = goals
+                    .iter()
+                    .filter_map(|(&id, g)| Some((id, g.resolve(&c.pose(id)?))))
+                    .collect();
+                c.set_mode(t, Mode::Disperse { goals })
+            }
         }
         Ok(())
     }
@@ -872,11 +922,14 @@ impl ScenarioRunner {
                 }),
                 _ => true,
             },
-            Behaviour::Disperse { goals, tolerance } => goals.iter().all(|(id, g)| {
-                c.lost().contains(id)
-                    || c.pose(*id)
-                        .is_some_and(|p| (p.x - g.x).hypot(p.y - g.y) <= *tolerance)
-            }),
+            Behaviour::Disperse { tolerance, .. } => match c.mode() {
+                Mode::Disperse { goals } => goals.iter().all(|(id, g)| {
+                    c.lost().contains(id)
+                        || c.pose(*id)
+                            .is_some_and(|p| (p.x - g.x).hypot(p.y - g.y) <= *tolerance)
+                }),
+                _ => true,
+            },
         }
     }
 
@@ -962,7 +1015,7 @@ anti_rendezvous = { until_distance = 0.1, gain = 0.3 }
 move = { trajectory = [[0, 0, 0], [10, 0.5, 0]] }
 
 [[step]]
-disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 0.4 }] }
+disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }] }
 "#;
 
     fn parse(text: &str) -> Result<Scenario, ScenarioError> {
@@ -1000,7 +1053,16 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
             Behaviour::Rendezvous { anti: true, .. }
         ));
         match &s.steps[7].behaviour {
-            Behaviour::Disperse { goals, .. } => assert_eq!(goals.len(), 2),
+            Behaviour::Disperse { goals, .. } => {
+                assert_eq!(goals[&1], Goal::At { x: 0.2, y: 0.4 });
+                assert_eq!(goals[&2], Goal::Ahead(0.3));
+                // Ahead: along the robot's heading where the step starts.
+                let g = goals[&2].resolve(&Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2));
+                assert!(
+                    (g.x - 1.0).abs() < 1e-12 && (g.y - 2.3).abs() < 1e-12,
+                    "{g:?}"
+                );
+            }
             other => panic!("{other:?}"),
         }
     }
@@ -1061,6 +1123,13 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, x = 0.6, y = 
         let e = err("[[step]]\nform = { shape = \"nope.toml\" }\n");
         assert!(
             e.starts_with("run.toml:2:") && e.contains("form.shape"),
+            "{e}"
+        );
+        // A goal is a point or a distance ahead, not both.
+        let e =
+            err("[[step]]\ndisperse = { goal = [{ robot = 1, x = 0.2, y = 0.1, ahead = 0.2 }] }\n");
+        assert!(
+            e.starts_with("run.toml:1:") && e.contains("disperse.goal[0]") && e.contains("ahead"),
             "{e}"
         );
         // Unknown behaviour key.

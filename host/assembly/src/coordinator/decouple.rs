@@ -11,17 +11,27 @@ pub(super) struct Wiggler {
     /// +1: pulls forward (the anchor robot); −1: backs off (the opening robot of a pilot's
     /// anchor).
     v_sign: f64,
-    /// False for a knob pair: its robot only pulls.
-    turns: bool,
     wiggle: Wiggle,
     /// When the wiggle started (s).
     start: f64,
+    /// Released: drives straight on (no turning) until its anchor head is clear.
+    clearing: bool,
 }
 
+/// Speed of a released pair's robot driving clear (m/s): above the wheels' 20 RPM
+/// dead-band.
+const CLEAR_SPEED: f64 = 0.02;
+
+/// A released anchor pair drives apart until the head is this far out of the opening (m):
+/// held where it popped, a wiggling neighbour pushed it back in (measured: 3 of 4 demo
+/// meshes re-coupled a released pair while the rest of the train wiggled).
+pub const DECOUPLE_CLEAR: f64 = 0.015;
+
 impl Coordinator {
-    /// Robots that wiggle now: the anchor robots of a decouple behaviour's pairs, and one
-    /// robot of every unplanned coupling (the anchor robot, or the opening robot backing off
-    /// when the anchor is a pilot's).
+    /// Robots that wiggle now: the anchor robots of a decouple behaviour's anchor pairs
+    /// once its knob pairs are out of their holes (lifted by hand, [`EventKind::LiftKnobs`]:
+    /// a knob-locked robot cannot turn), and one robot of every unplanned coupling (the
+    /// anchor robot, or the opening robot backing off when the anchor is a pilot's).
     pub(super) fn wigglers(&self) -> Vec<Wiggler> {
         let mut out = Vec::new();
         if let Mode::Decouple {
@@ -30,40 +40,94 @@ impl Coordinator {
             start,
         } = &self.mode
         {
-            for &i in pairs {
-                if self.released.contains(&i) {
+            let open = |i: &usize| {
+                self.released.contains(i)
+                    || self
+                        .pairs
+                        .get(*i)
+                        .is_none_or(|p| p.status == PairStatus::Decoupled)
+            };
+            let knobs_out = pairs
+                .iter()
+                .filter(|&&i| {
+                    self.pairs
+                        .get(i)
+                        .is_some_and(|p| p.pair.kind == PairType::KnobHole)
+                })
+                .all(open);
+            // One wiggle per robot at a time: in a train a robot between two pairs would
+            // otherwise wiggle one pair and be wiggled against by the other, and neither
+            // reaches the yaw that pops the legs.
+            let mut busy = BTreeSet::new();
+            // Released pairs still too close first: their robots are busy clearing.
+            let mut order: Vec<(bool, usize)> = pairs
+                .iter()
+                .map(|&i| (!self.released.contains(&i), i))
+                .collect();
+            order.sort_unstable();
+            for (unreleased, i) in order {
+                let Some(tp) = self
+                    .pairs
+                    .get(i)
+                    .filter(|p| knobs_out && p.pair.kind != PairType::KnobHole)
+                else {
+                    continue;
+                };
+                let (a, b) = (tp.pair.a, tp.pair.b);
+                if busy.contains(&a) || busy.contains(&b) || (!unreleased && self.head_clear(a, b))
+                {
                     continue;
                 }
-                if let Some(tp) = self.pairs.get(i) {
-                    out.push(Wiggler {
-                        robot: tp.pair.a,
-                        partner: tp.pair.b,
-                        v_sign: 1.0,
-                        turns: tp.pair.kind != PairType::KnobHole,
-                        wiggle: *wiggle,
-                        start: *start,
-                    });
-                }
-            }
-        }
-        if self.mode == Mode::Form {
-            for (&(anchor, opening), &t0) in &self.unplanned {
-                let (robot, partner, v_sign) = if self.kind_of(anchor) == RobotKind::NonPilot {
-                    (anchor, opening, 1.0)
-                } else {
-                    (opening, anchor, -1.0)
-                };
+                busy.extend([a, b]);
+                let (robot, partner, v_sign) = self.wiggling_side(a, b);
                 out.push(Wiggler {
                     robot,
                     partner,
                     v_sign,
-                    turns: true,
+                    wiggle: *wiggle,
+                    start: *start,
+                    clearing: !unreleased,
+                });
+            }
+        }
+        if self.mode == Mode::Form {
+            for (&(anchor, opening), &t0) in &self.unplanned {
+                let (robot, partner, v_sign) = self.wiggling_side(anchor, opening);
+                out.push(Wiggler {
+                    robot,
+                    partner,
+                    v_sign,
                     wiggle: Wiggle::default(),
                     start: t0,
+                    clearing: false,
                 });
             }
         }
         out
+    }
+
+    /// Robot `anchor`'s anchor head is [`DECOUPLE_CLEAR`] out of robot `opening`'s front
+    /// (or either pose is unknown).
+    fn head_clear(&self, anchor: RobotId, opening: RobotId) -> bool {
+        let (Some(a), Some(b)) = (self.pose(anchor), self.pose(opening)) else {
+            return true;
+        };
+        let g = &self.geometry;
+        let h = [f64::from(g.anchor_head[0]), f64::from(g.anchor_head[1])];
+        let head = b.inverse_transform(a.transform(h));
+        head[0] > f64::from(g.length) * 0.5 + DECOUPLE_CLEAR
+            || head[1].abs() > f64::from(g.width) * 0.5
+    }
+
+    /// Who wiggles an anchor pair open: the anchor robot pulling forward, or, when the
+    /// anchor is a pilot's (it turns imprecisely, THESIS 5.4.1), the opening robot backing
+    /// off. Returns (robot, partner, v_sign).
+    fn wiggling_side(&self, anchor: RobotId, opening: RobotId) -> (RobotId, RobotId, f64) {
+        if self.kind_of(anchor) == RobotKind::NonPilot {
+            (anchor, opening, 1.0)
+        } else {
+            (opening, anchor, -1.0)
+        }
     }
 
     /// Closed-loop wiggles ([`WiggleTurn`]): each wiggling robot turns back once its yaw
@@ -93,8 +157,11 @@ impl Coordinator {
             .get(&w.robot)
             .copied()
             .unwrap_or_else(|| WiggleTurn::new(t));
+        if w.clearing {
+            return (w.v_sign * w.wiggle.v_bias.max(CLEAR_SPEED), 0.0);
+        }
         let (v, om) = w.wiggle.command_closed(t - w.start, &turn);
-        (w.v_sign * v, if w.turns { om } else { 0.0 })
+        (w.v_sign * v, om)
     }
 
     /// Anchor couplings between robots that no tracked pair covers, from the measured poses

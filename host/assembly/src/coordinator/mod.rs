@@ -285,6 +285,15 @@ pub enum EventKind {
         /// Robot whose opening held it.
         opening: RobotId,
     },
+    /// A decouple behaviour has knob pairs: robots cannot pull a knob out of its hole
+    /// (THESIS 5.5.3), so a person lifts them apart; the anchor pairs wiggle once every
+    /// knob pair is measured out of its hole.
+    LiftKnobs {
+        /// Robots of the pairs being decoupled (lift the knob pairs among them).
+        robots: Vec<RobotId>,
+        /// The tracked knob pairs (knob robot, hole robot).
+        pairs: Vec<(RobotId, RobotId)>,
+    },
     /// A robot was declared lost.
     RobotLost {
         /// The robot.
@@ -863,6 +872,30 @@ impl Coordinator {
         }
         self.mode = mode;
         self.push(t, EventKind::BehaviourStarted { name: name.into() });
+        if let Mode::Decouple { pairs, .. } = &self.mode {
+            let knobs: Vec<(RobotId, RobotId)> = pairs
+                .iter()
+                .filter_map(|&i| self.pairs.get(i))
+                .filter(|p| p.pair.kind == PairType::KnobHole)
+                .map(|p| (p.pair.a, p.pair.b))
+                .collect();
+            if !knobs.is_empty() {
+                let mut robots: Vec<RobotId> = pairs
+                    .iter()
+                    .filter_map(|&i| self.pairs.get(i))
+                    .flat_map(|p| [p.pair.a, p.pair.b])
+                    .collect();
+                robots.sort_unstable();
+                robots.dedup();
+                self.push(
+                    t,
+                    EventKind::LiftKnobs {
+                        robots,
+                        pairs: knobs,
+                    },
+                );
+            }
+        }
     }
 
     /// Robots seen and not lost, by id.
@@ -1634,16 +1667,141 @@ mod tests {
 
     /// Two robots that formed a line by t = 0.5 s (no settling), standing at their goals.
     fn formed_pair() -> (Coordinator, Vec<RobotState>) {
+        formed(
+            ShapeSpec::Line,
+            &[np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)],
+        )
+    }
+
+    /// `robots` formed into `spec` (every robot on its goal, every pair connected).
+    fn formed(spec: ShapeSpec, robots: &[RobotState]) -> (Coordinator, Vec<RobotState>) {
         let mut c = coordinator();
         c.cfg.form_settle_s = 0.0;
-        let robots = vec![np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)];
         let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
-        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        c.form(0.0, spec, robots, Some(0.0)).unwrap();
         let goal = at_goals(&c, &kinds);
-        c.tick(0.0, &goal);
-        c.tick(0.1, &goal);
-        assert!(c.tick(0.5, &goal).complete);
+        let mut t = 0.0;
+        while !c.tick(t, &goal).complete {
+            t += 0.1;
+            assert!(t < 5.0, "formed: {:?}", c.pairs());
+        }
         (c, goal)
+    }
+
+    /// `robots` with robot `id` moved by (dx, dy).
+    fn moved(robots: &[RobotState], ids: &[RobotId], dx: f64, dy: f64) -> Vec<RobotState> {
+        robots
+            .iter()
+            .map(|r| {
+                let mut r = *r;
+                if ids.contains(&r.id) {
+                    r.pose.x += dx;
+                    r.pose.y += dy;
+                }
+                r
+            })
+            .collect()
+    }
+
+    fn wiggling(tick: &Tick) -> Vec<(RobotId, f64)> {
+        tick.tasks
+            .iter()
+            .filter_map(|t| match t.role {
+                Role::Velocity { w, .. } => Some((t.robot, w)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_mesh_is_dissolved_by_lifting_its_knobs_then_wiggling_its_anchors() {
+        let (mut c, goal) = formed(ShapeSpec::Mesh { rows: 2 }, &four_apart());
+        let pairs = c.coupled_pairs();
+        let knob = *pairs
+            .iter()
+            .find(|&&i| c.pairs()[i].pair.kind == PairType::KnobHole)
+            .expect("a knob pair");
+        c.set_mode(
+            5.0,
+            Mode::Decouple {
+                pairs: pairs.clone(),
+                wiggle: Wiggle::default(),
+                start: 5.0,
+            },
+        );
+        // A person is asked to lift the knob pair; until it is out, nobody wiggles (a
+        // knob-locked robot cannot turn).
+        let tick = c.tick(5.1, &goal);
+        let (ka, kb) = (c.pairs()[knob].pair.a, c.pairs()[knob].pair.b);
+        assert!(
+            tick.events.iter().any(|e| matches!(&e.kind,
+                EventKind::LiftKnobs { robots, pairs } if robots.len() == 4 && pairs == &[(ka, kb)])),
+            "{:?}",
+            tick.events
+        );
+        assert!(wiggling(&tick).is_empty(), "{:?}", wiggling(&tick));
+        // The hole robot's row set down 3 cm away: the knob pair is released and each row's
+        // anchor robot wiggles.
+        let row_b: Vec<RobotId> = goal
+            .iter()
+            .filter(|r| (r.pose.y - goal.iter().find(|q| q.id == kb).unwrap().pose.y).abs() < 0.01)
+            .map(|r| r.id)
+            .collect();
+        let lifted = moved(&goal, &row_b, 0.0, 0.03);
+        let tick = c.tick(5.2, &lifted);
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::PairReleased { a, b } if (a, b) == (ka, kb))));
+        let w = wiggling(&c.tick(5.3, &lifted));
+        assert_eq!(w.len(), 2, "one anchor robot per row: {w:?}");
+    }
+
+    #[test]
+    fn a_train_is_wiggled_open_one_pair_per_robot_and_a_released_pair_drives_clear() {
+        let robots = [
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.2, 0.0, 0.0),
+            np(3, 0.4, 0.0, 0.0),
+        ];
+        let (mut c, goal) = formed(ShapeSpec::Line, &robots);
+        let pairs = c.coupled_pairs();
+        assert_eq!(pairs.len(), 2);
+        c.set_mode(
+            5.0,
+            Mode::Decouple {
+                pairs: pairs.clone(),
+                wiggle: Wiggle::default(),
+                start: 5.0,
+            },
+        );
+        // The middle robot is in both pairs: one of them wiggles at a time.
+        let tick = c.tick(5.1, &goal);
+        let w = wiggling(&tick);
+        assert_eq!(w.len(), 1, "{w:?}");
+        let first = pairs
+            .iter()
+            .map(|&i| c.pairs()[i].pair)
+            .find(|p| p.a == w[0].0)
+            .expect("the wiggler's pair");
+        // Its anchor pops 8 mm out: released, but not clear. It drives straight on and the
+        // other pair waits.
+        let (s, co) = goal
+            .iter()
+            .find(|r| r.id == first.a)
+            .unwrap()
+            .pose
+            .yaw
+            .sin_cos();
+        let out = moved(&goal, &[first.a], 0.008 * co, 0.008 * s);
+        c.tick(5.2, &out);
+        let w = wiggling(&c.tick(5.3, &out));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].0 == first.a && w[0].1 == 0.0, "drives clear: {w:?}");
+        // Clear: the other pair wiggles.
+        let clear = moved(&goal, &[first.a], 0.03 * co, 0.03 * s);
+        let w = wiggling(&c.tick(5.4, &clear));
+        assert!(w.len() == 1 && w[0].0 != first.a, "{w:?}");
     }
 
     #[test]
