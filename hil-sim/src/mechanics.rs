@@ -54,7 +54,7 @@
 //! agree within `knob_yaw_tolerance` and the sides touch ([`Coupling::knob_seated`]);
 //! side by side both knobs go in, with the half-body offset of a mesh (THESIS 5.2.2) one.
 //! The pair is rigid afterwards (the two robots keep their relative pose). A knob pair holds more than robots can pull (`knob_hold_force`), so it is
-//! released only by [`Mechanics::detach`] (a person pulling it apart).
+//! released only by a person ([`Mechanics::detach`], [`Mechanics::lift_knobs`]).
 
 use crate::math::{cross, dot, norm, sub, wrap, Frame, Pose, V2};
 use puzzlebot_params::coupling::{AnchorProbe, Coupling, KnobProbe};

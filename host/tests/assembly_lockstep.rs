@@ -535,7 +535,7 @@ timeout_s = 50
 }
 
 #[test]
-#[ignore = "fails (measured 2026-11-22, seeds 1-20 of scattered_fleet): with 2 pilots every order of the 2-row mesh needs a train holding one pilot to manoeuvre onto the other pilot's axis (towing, not planned); and a mesh cannot be dissolved in the simulator (knob pairs are released only by hand). `demo` runs the grown 1-pilot mesh instead; issue 7"]
+#[ignore = "fails (measured 2026-11-22, seeds 1-20 of scattered_fleet): with 2 pilots every order of the 2-row mesh needs a train holding one pilot to manoeuvre onto the other pilot's axis (towing, not planned). `demo` grows, drives, dissolves and disperses a 1-pilot mesh instead; issue 7"]
 fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
     // Issue 7's demo (demo.toml): six scattered robots (two pilots) form a 2-row mesh, move
     // it 0.5 m, dissolve it and every robot reaches its own goal.

@@ -295,3 +295,47 @@ timeout_s = 10
         "the assembly advanced towards the edge: centroid {cx:.4}"
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mesh_is_dissolved_by_hand_and_wiggling_over_loopback() {
+    // A 2×2 mesh (THESIS 5.2.2: rows offset by half a body, knobs where the rows meet): the
+    // host asks for the knob pairs to be lifted, the simulated fleet's hand does it over its
+    // command channel, and the anchors are wiggled open.
+    let mut fleet = sim(&row(&[
+        (1, "NonPilot", [0.0, 0.0, 0.0]),
+        (2, "NonPilot", [0.057, 0.0, 0.0]),
+        (3, "NonPilot", [0.0285, 0.05, 0.0]),
+        (4, "NonPilot", [0.0855, 0.05, 0.0]),
+    ]));
+    let link = |kind, a, b| puzzlebot_sim::CouplingSpec { kind, a, b };
+    use puzzlebot_sim::LinkKind::{Anchor, Knob};
+    fleet.couplings = vec![
+        link(Anchor, 2, 1),
+        link(Anchor, 4, 3),
+        link(Knob, 1, 3),
+        link(Knob, 2, 3),
+        link(Knob, 2, 4),
+    ];
+    let scenario = r#"
+name = "dissolve"
+[[step]]
+form = { shape = "mesh", rows = 2, heading_deg = 0 }
+timeout_s = 10
+[[step]]
+decouple = { v_bias = 0.01, w_max = 1.5, period_s = 2.0 }
+timeout_s = 30
+"#;
+    let r = run("assembly-dissolve", scenario, fleet, 45.0, None).await;
+    assert!(finished(&r), "state {:?}", r.state);
+    assert!(
+        r.events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::LiftKnobs { .. })),
+        "the knob pairs were lifted"
+    );
+    assert!(
+        r.coupled_truth.is_empty(),
+        "still coupled: {:?}",
+        r.coupled_truth
+    );
+}
