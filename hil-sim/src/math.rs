@@ -110,25 +110,7 @@ impl Frame {
 }
 
 /// Wrap an angle to (−π, π].
-pub fn wrap(a: f64) -> f64 {
-    use core::f64::consts::PI;
-    if a > -PI && a <= PI {
-        return a;
-    }
-    if a > PI && a <= 3.0 * PI {
-        return a - 2.0 * PI;
-    }
-    if a > -3.0 * PI && a <= -PI {
-        return a + 2.0 * PI;
-    }
-    let mut a = a % (2.0 * core::f64::consts::PI);
-    if a > core::f64::consts::PI {
-        a -= 2.0 * core::f64::consts::PI;
-    } else if a <= -core::f64::consts::PI {
-        a += 2.0 * core::f64::consts::PI;
-    }
-    a
-}
+pub use puzzlebot_params::angle::wrap_angle as wrap;
 
 /// a − b.
 pub fn sub(a: V2, b: V2) -> V2 {

@@ -346,15 +346,7 @@ pub struct PoseSample {
     pub theta: f64,
 }
 
-/// Wrap an angle into (−π, π].
-pub fn wrap_angle(a: f64) -> f64 {
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let mut r = a.rem_euclid(two_pi);
-    if r > std::f64::consts::PI {
-        r -= two_pi;
-    }
-    r
-}
+pub use puzzlebot_params::angle::wrap_angle;
 
 /// Instant (v, ω) from poses by least-squares slopes over a short window (THESIS 4.4.3:
 /// "calculates the instant linear and angular velocity within a small time window").

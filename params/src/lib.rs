@@ -11,6 +11,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod angle;
 pub mod coupling;
 pub mod drive;
 pub mod firmware;

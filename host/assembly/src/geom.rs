@@ -5,16 +5,7 @@ use puzzlebot_params::geometry::Geometry;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Wrap an angle into (−π, π].
-pub fn wrap_angle(a: f64) -> f64 {
-    let mut w = a % (2.0 * PI);
-    if w <= -PI {
-        w += 2.0 * PI;
-    } else if w > PI {
-        w -= 2.0 * PI;
-    }
-    w
-}
+pub use puzzlebot_params::angle::wrap_angle;
 
 /// A planar pose (x, y in m, yaw in rad), THESIS 3.2: p_i = [x_i, y_i, θ_i].
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]

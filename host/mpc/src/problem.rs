@@ -117,15 +117,7 @@ pub(crate) fn point_in_frame(
     (q, ja, jb)
 }
 
-/// Wraps an angle to (−π, π].
-pub(crate) fn wrap(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let mut r = a.rem_euclid(t);
-    if r > std::f64::consts::PI {
-        r -= t;
-    }
-    r
-}
+pub(crate) use puzzlebot_params::angle::wrap_angle as wrap;
 
 /// One constraint g(x_k) ≤ 0 on the ego state at step k: value and gradient.
 #[derive(Debug, Clone, Copy)]
