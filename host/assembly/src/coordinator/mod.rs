@@ -1044,6 +1044,7 @@ impl Coordinator {
         }
         let (mut tasks, active) = self.tasks(t, &segments);
         self.keep_grown(&mut tasks, &segments);
+        self.make_way(&mut tasks, &segments, &active);
         let maintain = self
             .pairs
             .iter()
@@ -1095,6 +1096,47 @@ impl Coordinator {
             task.role = Role::Keep { pose };
         }
         self.kept_at = kept;
+    }
+
+    /// Forming: a lone non-pilot that waits in the corridor of an active pair's staged
+    /// approach ([`Coordinator::approach_blockers`]) steps out of it. The approach chooser
+    /// skips blocked pairs, but growing often has only one pair to choose (measured, seed 39
+    /// of the demo's scattered start: a robot docking at the lone pilot pushed for 240 s
+    /// against one waiting in its lane).
+    fn make_way(
+        &self,
+        tasks: &mut [RobotTask],
+        segments: &BTreeMap<RobotId, usize>,
+        active: &[usize],
+    ) {
+        if self.mode != Mode::Form {
+            return;
+        }
+        let lone = |id: RobotId| {
+            segments
+                .get(&id)
+                .is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
+                && self.kind_of(id) == RobotKind::NonPilot
+        };
+        for &i in active {
+            if !matches!(
+                self.pairs.get(i).map(|p| p.status),
+                Some(PairStatus::Decoupled | PairStatus::HeadAligned)
+            ) {
+                continue;
+            }
+            for (id, goal) in self.approach_blockers(i, segments) {
+                if let Some(task) = tasks.iter_mut().find(|t| {
+                    t.robot == id && lone(id) && matches!(t.role, Role::Hold | Role::Wait)
+                }) {
+                    task.role = Role::GoTo {
+                        goal,
+                        use_yaw: false,
+                    };
+                    task.leader = Some(id);
+                }
+            }
+        }
     }
 
     fn kind_of(&self, id: RobotId) -> RobotKind {
@@ -1548,6 +1590,49 @@ mod tests {
             .slot_robot
             .clone();
         (c, robots, kinds, slots)
+    }
+
+    #[test]
+    fn a_robot_waiting_in_a_docking_lane_makes_way() {
+        let (mut c, mut robots, _, _) = line_grown_round_pilot_1();
+        let tick = c.tick(0.0, &robots);
+        let i = tick.active[0];
+        let p = c.pairs()[i].pair;
+        let mover = if p.a == 1 { p.b } else { p.a };
+        let waiting = [2, 3, 4]
+            .into_iter()
+            .find(|&id| id != mover)
+            .expect("a waiting robot");
+        // Put the waiting robot on the approach axis, between the stand-off and the place.
+        let f = c.dock_frame(i, mover).expect("dock frame");
+        let s = f.normal.0.signum();
+        let at = f.fin.transform([-s * 0.06, 0.01]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(at[0], at[1], 0.3);
+        }
+        let tick = c.tick(0.1, &robots);
+        assert_eq!(tick.active, vec![i], "the same pair goes on");
+        match role_of(&tick, waiting) {
+            Role::GoTo { goal, .. } => {
+                let o = f.fin.inverse_transform(goal.xy());
+                assert!(
+                    o[1] > 0.035 + 0.025 && (o[0] + s * 0.06).abs() < 1e-9,
+                    "beside the corridor, on its own side: {o:?}"
+                );
+            }
+            r => panic!("robot {waiting} does not make way: {r:?}"),
+        }
+        // Out of the corridor it waits again.
+        let out = f.fin.transform([-s * 0.06, 0.07]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(out[0], out[1], 0.3);
+        }
+        let tick = c.tick(0.2, &robots);
+        assert!(
+            matches!(role_of(&tick, waiting), Role::Hold | Role::Wait),
+            "{:?}",
+            role_of(&tick, waiting)
+        );
     }
 
     #[test]

@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// How far outside an approach corridor a robot that makes way for it stands (m): half a
+/// body and 5 mm, so its body clears the corridor's edge.
+pub const MAKE_WAY_MARGIN: f64 = 0.03;
+
 /// Half-width of an anchor approach's corridor that another robot's centre blocks (m): half a
 /// body and 10 mm; robots beside the axis (a mesh's other row, 50 mm off) do not block it.
 const AXIS_BLOCK_HALF_WIDTH: f64 = 0.035;
@@ -151,24 +155,45 @@ impl Coordinator {
     /// stand-off plus the route clearance: the stand-off would move out past that robot and
     /// the approach run through it.
     pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
+        !self.approach_blockers(i, segments).is_empty()
+    }
+
+    /// The robots that block pair `i`'s staged approach ([`Coordinator::approach_blocked`]),
+    /// each with the place out of the corridor it can stand instead: beside it, on the side
+    /// it already stands, clear of the corridor by [`MAKE_WAY_MARGIN`].
+    pub(super) fn approach_blockers(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Vec<(RobotId, Pose2)> {
         let Some((mover, partner)) = self.lone_approach(i, segments) else {
-            return false;
+            return Vec::new();
         };
         let Some(f) = self.dock_frame(i, mover) else {
-            return false;
+            return Vec::new();
         };
         // Own connection point at the front: the approach comes from behind the place.
         let s = f.normal.0.signum();
         let reach = self.cfg.dock.standoff + super::approach::ROUTE_CLEARANCE;
-        self.robots.iter().any(|(&id, k)| {
-            if id == mover || self.lost.contains(&id) || segments.get(&id) == segments.get(&partner)
-            {
-                return false;
-            }
-            let o = f.fin.inverse_transform(k.pose.xy());
-            let out = -s * o[0];
-            out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH
-        })
+        self.robots
+            .iter()
+            .filter(|&(&id, _)| {
+                id != mover
+                    && !self.lost.contains(&id)
+                    && segments.get(&id) != segments.get(&partner)
+            })
+            .filter_map(|(&id, k)| {
+                let o = f.fin.inverse_transform(k.pose.xy());
+                let out = -s * o[0];
+                (out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH).then(|| {
+                    let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
+                    let to = f
+                        .fin
+                        .transform([o[0], side * (AXIS_BLOCK_HALF_WIDTH + MAKE_WAY_MARGIN)]);
+                    (id, Pose2::new(to[0], to[1], k.pose.yaw))
+                })
+            })
+            .collect()
     }
 
     /// Growing around `seed`: the pair in progress, else the pair by which the nearest lone
