@@ -1125,7 +1125,7 @@ impl Coordinator {
             ) {
                 continue;
             }
-            for (id, goal) in self.approach_blockers(i, segments) {
+            for (id, goal, _) in self.approach_blockers(i, segments) {
                 if let Some(task) = tasks.iter_mut().find(|t| {
                     t.robot == id && lone(id) && matches!(t.role, Role::Hold | Role::Wait)
                 }) {
@@ -1622,8 +1622,22 @@ mod tests {
             }
             r => panic!("robot {waiting} does not make way: {r:?}"),
         }
-        // Out of the corridor it waits again.
-        let out = f.fin.transform([-s * 0.06, 0.07]);
+        // Beside the corridor but where the approaching robot must stand off (the route
+        // there keeps its clearance): it steps further out.
+        let near = f.fin.transform([-s * 0.06, 0.05]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(near[0], near[1], 0.3);
+        }
+        let tick = c.tick(0.15, &robots);
+        match role_of(&tick, waiting) {
+            Role::GoTo { goal, .. } => {
+                let o = f.fin.inverse_transform(goal.xy());
+                assert!(o[1] > 0.075, "clear of the stand-off: {o:?}");
+            }
+            r => panic!("robot {waiting} does not make way at the stand-off: {r:?}"),
+        }
+        // Out of the corridor and clear of the stand-off it waits again.
+        let out = f.fin.transform([-s * 0.06, 0.09]);
         for r in robots.iter_mut().filter(|r| r.id == waiting) {
             r.pose = Pose2::new(out[0], out[1], 0.3);
         }

@@ -155,17 +155,20 @@ impl Coordinator {
     /// stand-off plus the route clearance: the stand-off would move out past that robot and
     /// the approach run through it.
     pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
-        !self.approach_blockers(i, segments).is_empty()
+        self.approach_blockers(i, segments)
+            .iter()
+            .any(|&(_, _, on_axis)| on_axis)
     }
 
     /// The robots that block pair `i`'s staged approach ([`Coordinator::approach_blocked`]),
-    /// each with the place out of the corridor it can stand instead: beside it, on the side
-    /// it already stands, clear of the corridor by [`MAKE_WAY_MARGIN`].
+    /// (`true`) or stand too near its stand-off for the route there, each with a place it can
+    /// stand instead: beside the axis on the side it already stands, clear of the corridor by
+    /// [`MAKE_WAY_MARGIN`] and of the stand-off by the route clearance.
     pub(super) fn approach_blockers(
         &self,
         i: usize,
         segments: &BTreeMap<RobotId, usize>,
-    ) -> Vec<(RobotId, Pose2)> {
+    ) -> Vec<(RobotId, Pose2, bool)> {
         let Some((mover, partner)) = self.lone_approach(i, segments) else {
             return Vec::new();
         };
@@ -185,12 +188,17 @@ impl Coordinator {
             .filter_map(|(&id, k)| {
                 let o = f.fin.inverse_transform(k.pose.xy());
                 let out = -s * o[0];
-                (out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH).then(|| {
+                let on_axis = out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH;
+                // Too near the stand-off for the route there (it keeps its clearance).
+                let dx = out - self.cfg.dock.standoff;
+                let at_standoff = dx.hypot(o[1]) < super::approach::ROUTE_CLEARANCE;
+                (on_axis || at_standoff).then(|| {
                     let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
-                    let to = f
-                        .fin
-                        .transform([o[0], side * (AXIS_BLOCK_HALF_WIDTH + MAKE_WAY_MARGIN)]);
-                    (id, Pose2::new(to[0], to[1], k.pose.yaw))
+                    let clear = super::approach::ROUTE_CLEARANCE + MAKE_WAY_MARGIN / 3.0;
+                    let lat = (AXIS_BLOCK_HALF_WIDTH + MAKE_WAY_MARGIN)
+                        .max((clear * clear - dx * dx).max(0.0).sqrt());
+                    let to = f.fin.transform([o[0], side * lat]);
+                    (id, Pose2::new(to[0], to[1], k.pose.yaw), on_axis)
                 })
             })
             .collect()
