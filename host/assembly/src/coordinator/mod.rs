@@ -1802,6 +1802,25 @@ mod tests {
             .collect()
     }
 
+    /// `robots` formed into `spec`, then decoupling every pair from t = 5 s: (coordinator,
+    /// poses, the pairs).
+    fn decoupling(
+        spec: ShapeSpec,
+        robots: &[RobotState],
+    ) -> (Coordinator, Vec<RobotState>, Vec<usize>) {
+        let (mut c, goal) = formed(spec, robots);
+        let pairs = c.coupled_pairs();
+        c.set_mode(
+            5.0,
+            Mode::Decouple {
+                pairs: pairs.clone(),
+                wiggle: Wiggle::default(),
+                start: 5.0,
+            },
+        );
+        (c, goal, pairs)
+    }
+
     fn wiggling(tick: &Tick) -> Vec<(RobotId, f64)> {
         tick.tasks
             .iter()
@@ -1814,20 +1833,11 @@ mod tests {
 
     #[test]
     fn a_mesh_is_dissolved_by_lifting_its_knobs_then_wiggling_its_anchors() {
-        let (mut c, goal) = formed(ShapeSpec::Mesh { rows: 2 }, &four_apart());
-        let pairs = c.coupled_pairs();
+        let (mut c, goal, pairs) = decoupling(ShapeSpec::Mesh { rows: 2 }, &four_apart());
         let knob = *pairs
             .iter()
             .find(|&&i| c.pairs()[i].pair.kind == PairType::KnobHole)
             .expect("a knob pair");
-        c.set_mode(
-            5.0,
-            Mode::Decouple {
-                pairs: pairs.clone(),
-                wiggle: Wiggle::default(),
-                start: 5.0,
-            },
-        );
         // A person is asked to lift the knob pair; until it is out, nobody wiggles (a
         // knob-locked robot cannot turn).
         let tick = c.tick(5.1, &goal);
@@ -1863,17 +1873,8 @@ mod tests {
             np(2, 0.2, 0.0, 0.0),
             np(3, 0.4, 0.0, 0.0),
         ];
-        let (mut c, goal) = formed(ShapeSpec::Line, &robots);
-        let pairs = c.coupled_pairs();
+        let (mut c, goal, pairs) = decoupling(ShapeSpec::Line, &robots);
         assert_eq!(pairs.len(), 2);
-        c.set_mode(
-            5.0,
-            Mode::Decouple {
-                pairs: pairs.clone(),
-                wiggle: Wiggle::default(),
-                start: 5.0,
-            },
-        );
         // The middle robot is in both pairs: one of them wiggles at a time.
         let tick = c.tick(5.1, &goal);
         let w = wiggling(&tick);
