@@ -79,7 +79,7 @@ pub trait Controller: Send {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub enum HandRequest {
     /// Lift the knob pairs among these robots apart and set the groups still joined by
-    /// anchors (the rows) down a few millimetres apart.
+    /// anchors (the rows) down a few centimetres apart.
     LiftKnobs {
         /// The robots.
         robots: Vec<RobotId>,

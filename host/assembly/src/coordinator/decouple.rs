@@ -28,8 +28,9 @@ const CLEAR_SPEED: f64 = 0.02;
 pub const DECOUPLE_CLEAR: f64 = 0.015;
 
 impl Coordinator {
-    /// Robots that wiggle now: the anchor robots of a decouple behaviour's anchor pairs
-    /// once its knob pairs are out of their holes (lifted by hand, [`EventKind::LiftKnobs`]:
+    /// Robots that wiggle now: one robot of each of a decouple behaviour's anchor pairs
+    /// ([`Coordinator::wiggling_side`]; one pair per robot at a time, a released pair's robot
+    /// driving clear first) once its knob pairs are out of their holes (lifted by hand, [`EventKind::LiftKnobs`]:
     /// a knob-locked robot cannot turn), and one robot of every unplanned coupling (the
     /// anchor robot, or the opening robot backing off when the anchor is a pilot's).
     pub(super) fn wigglers(&self) -> Vec<Wiggler> {

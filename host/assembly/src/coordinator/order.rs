@@ -7,6 +7,10 @@ use super::*;
 /// body and 5 mm, so its body clears the corridor's edge.
 pub const MAKE_WAY_MARGIN: f64 = 0.03;
 
+/// How far beyond the route clearance of an approach's stand-off a robot that makes way for
+/// it stands (m).
+pub const STANDOFF_MARGIN: f64 = 0.01;
+
 /// Half-width of an anchor approach's corridor that another robot's centre blocks (m): half a
 /// body and 10 mm; robots beside the axis (a mesh's other row, 50 mm off) do not block it.
 const AXIS_BLOCK_HALF_WIDTH: f64 = 0.035;
@@ -160,10 +164,11 @@ impl Coordinator {
             .any(|&(_, _, on_axis)| on_axis)
     }
 
-    /// The robots that block pair `i`'s staged approach ([`Coordinator::approach_blocked`]),
-    /// (`true`) or stand too near its stand-off for the route there, each with a place it can
-    /// stand instead: beside the axis on the side it already stands, clear of the corridor by
-    /// [`MAKE_WAY_MARGIN`] and of the stand-off by the route clearance.
+    /// The robots in the way of pair `i`'s staged approach: on its axis (flag `true`, what
+    /// [`Coordinator::approach_blocked`] counts) or too near its stand-off for the route
+    /// there. Each comes with a place it can stand instead: beside the axis on the side it
+    /// already stands, clear of the corridor by [`MAKE_WAY_MARGIN`] and of the stand-off by
+    /// the route clearance and [`STANDOFF_MARGIN`].
     pub(super) fn approach_blockers(
         &self,
         i: usize,
@@ -194,7 +199,7 @@ impl Coordinator {
                 let at_standoff = dx.hypot(o[1]) < super::approach::ROUTE_CLEARANCE;
                 (on_axis || at_standoff).then(|| {
                     let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
-                    let clear = super::approach::ROUTE_CLEARANCE + MAKE_WAY_MARGIN / 3.0;
+                    let clear = super::approach::ROUTE_CLEARANCE + STANDOFF_MARGIN;
                     let lat = (AXIS_BLOCK_HALF_WIDTH + MAKE_WAY_MARGIN)
                         .max((clear * clear - dx * dx).max(0.0).sqrt());
                     let to = f.fin.transform([o[0], side * lat]);
