@@ -844,12 +844,25 @@ impl ScenarioRunner {
                 )
             }
             Behaviour::Disperse { goals, .. } => {
-                // Robots not seen (lost) get no goal.
-                let goals = goals
-                    .iter()
-                    .filter_map(|(&id, g)| Some((id, g.resolve(&c.pose(id)?))))
-                    .collect();
-                c.set_mode(t, Mode::Disperse { goals })
+                // Lost robots get no goal; one never seen is an error in the scenario.
+                let mut resolved = BTreeMap::new();
+                for (&id, g) in &goals {
+                    let seen = robots.iter().find(|r| r.id == id).map(|r| r.pose);
+                    match seen.or_else(|| c.pose(id)) {
+                        _ if c.lost().contains(&id) => {}
+                        Some(p) => {
+                            resolved.insert(id, g.resolve(&p));
+                        }
+                        None => {
+                            return Err(format!(
+                                "step '{}' (line {}): disperse goal for robot {id}, which is \
+                                 not in the fleet",
+                                step.label, step.line
+                            ))
+                        }
+                    }
+                }
+                c.set_mode(t, Mode::Disperse { goals: resolved })
             }
         }
         Ok(())
@@ -1181,6 +1194,29 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
                 .count(),
             2
         );
+    }
+
+    #[test]
+    fn a_disperse_goal_for_a_robot_not_in_the_fleet_fails_its_step_by_name() {
+        let text = "[[step]]\nlabel = \"go home\"\n\
+                    disperse = { goal = [{ robot = 1, ahead = 0.1 }, { robot = 9, x = 0.0, y = 0.0 }] }\n";
+        let mut r = ScenarioRunner::new(
+            parse(text).unwrap(),
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        let robots = vec![RobotState {
+            id: 1,
+            kind: RobotKind::NonPilot,
+            pose: Pose2::new(0.0, 0.0, 0.0),
+        }];
+        r.tick(0.0, &robots);
+        match r.state() {
+            RunState::Failed { index: 0, reason } => assert!(
+                reason.contains("go home") && reason.contains("robot 9"),
+                "{reason}"
+            ),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]
