@@ -1112,12 +1112,6 @@ impl Coordinator {
         if self.mode != Mode::Form {
             return;
         }
-        let lone = |id: RobotId| {
-            segments
-                .get(&id)
-                .is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
-                && self.kind_of(id) == RobotKind::NonPilot
-        };
         for &i in active {
             if !matches!(
                 self.pairs.get(i).map(|p| p.status),
@@ -1127,7 +1121,9 @@ impl Coordinator {
             }
             for (id, goal, _) in self.approach_blockers(i, segments) {
                 if let Some(task) = tasks.iter_mut().find(|t| {
-                    t.robot == id && lone(id) && matches!(t.role, Role::Hold | Role::Wait)
+                    t.robot == id
+                        && self.lone_non_pilot(id, segments)
+                        && matches!(t.role, Role::Hold | Role::Wait)
                 }) {
                     task.role = Role::GoTo {
                         goal,
@@ -1615,6 +1611,7 @@ mod tests {
         match role_of(&tick, waiting) {
             Role::GoTo { goal, .. } => {
                 let o = f.fin.inverse_transform(goal.xy());
+                // Its body (half a width) outside the 35 mm corridor.
                 assert!(
                     o[1] > 0.035 + 0.025 && (o[0] + s * 0.06).abs() < 1e-9,
                     "beside the corridor, on its own side: {o:?}"
@@ -1632,7 +1629,10 @@ mod tests {
         match role_of(&tick, waiting) {
             Role::GoTo { goal, .. } => {
                 let o = f.fin.inverse_transform(goal.xy());
-                assert!(o[1] > 0.075, "clear of the stand-off: {o:?}");
+                assert!(
+                    o[1] > approach::ROUTE_CLEARANCE,
+                    "clear of the stand-off: {o:?}"
+                );
             }
             r => panic!("robot {waiting} does not make way at the stand-off: {r:?}"),
         }
@@ -1787,7 +1787,7 @@ mod tests {
         (c, goal)
     }
 
-    /// `robots` with robot `id` moved by (dx, dy).
+    /// `robots` with the robots `ids` moved by (dx, dy).
     fn moved(robots: &[RobotState], ids: &[RobotId], dx: f64, dy: f64) -> Vec<RobotState> {
         robots
             .iter()

@@ -122,6 +122,14 @@ impl Coordinator {
         active
     }
 
+    /// Robot `id` is a non-pilot alone in its segment (it can drive to a pair by itself).
+    pub(super) fn lone_non_pilot(&self, id: RobotId, segments: &BTreeMap<RobotId, usize>) -> bool {
+        segments
+            .get(&id)
+            .is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
+            && self.kind_of(id) == RobotKind::NonPilot
+    }
+
     /// Anchor pair `i` joined by a lone non-pilot's staged approach (its partner's side holds:
     /// an assembly, or pilots alone, which are not driven until coupled): (mover, partner).
     pub(super) fn lone_approach(
@@ -140,7 +148,7 @@ impl Coordinator {
                 .filter(move |(_, x)| Some(*x) == s)
                 .map(|(&m, _)| m)
         };
-        let lone = |r: RobotId| members(r).count() == 1 && self.kind_of(r) == RobotKind::NonPilot;
+        let lone = |r: RobotId| self.lone_non_pilot(r, segments);
         let holds = |r: RobotId| {
             members(r).count() > 1 || members(r).all(|m| self.kind_of(m) == RobotKind::Pilot)
         };
@@ -223,13 +231,10 @@ impl Coordinator {
         let joins = |i: usize| {
             let p = &self.pairs[i].pair;
             let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
-            let lone = |id: RobotId, s: Option<&usize>| {
-                s.is_some_and(|s| segments.values().filter(|&x| x == s).count() == 1)
-                    && self.kind_of(id) == RobotKind::NonPilot
-            };
-            if sa == Some(&home) && sb != Some(&home) && lone(p.b, sb) {
+            let lone = |id| self.lone_non_pilot(id, segments);
+            if sa == Some(&home) && sb != Some(&home) && lone(p.b) {
                 Some(p.b)
-            } else if sb == Some(&home) && sa != Some(&home) && lone(p.a, sa) {
+            } else if sb == Some(&home) && sa != Some(&home) && lone(p.a) {
                 Some(p.a)
             } else {
                 None
