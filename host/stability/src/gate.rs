@@ -98,6 +98,8 @@ pub struct Stats {
     pub solves: u32,
     /// Interior-point iterations in total.
     pub iterations: u32,
+    /// Structured solves ([`crate::ipm`]) that gave no optimum and were handed to Clarabel.
+    pub fallbacks: u32,
     /// Seconds building the model(s) (resolve + sparse assembly).
     pub build_seconds: f64,
     /// Seconds in the solver.
@@ -306,13 +308,16 @@ fn summarize(r: &Resolved, verdict: Verdict, state: Option<State>, stats: Stats)
 }
 
 /// How the relaxed cone program (no connector limits) is handed to the solver.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Formulation {
     /// The direct form of [`socp::build`] (reference).
     Direct,
-    /// The equilibrium-multiplier (dual) form of [`crate::dual`] (default: smaller KKT).
+    /// The equilibrium-multiplier (dual) form of [`crate::dual`] in Clarabel (smaller KKT).
     Dual,
+    /// The dual form solved by the structured interior-point method of [`crate::ipm`] (block
+    /// factorisation over the module graph; default); where it gives no optimum, Clarabel.
+    Structured,
 }
 
 /// Options of an evaluation.
@@ -332,7 +337,7 @@ impl Default for Options {
         Options {
             fast_path: true,
             max_iter: 100,
-            formulation: Formulation::Dual,
+            formulation: Formulation::Structured,
         }
     }
 }
@@ -371,6 +376,7 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
                 path: Path::DeterminateTree,
                 solves: 0,
                 iterations: 0,
+                fallbacks: 0,
                 build_seconds: total,
                 solve_seconds: 0.0,
                 total_seconds: total,
@@ -383,6 +389,7 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
         path: Path::Socp,
         solves: 0,
         iterations: 0,
+        fallbacks: 0,
         build_seconds: build0,
         solve_seconds: 0.0,
         total_seconds: 0.0,
@@ -390,14 +397,31 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
     };
     let run = |with_limits: bool, tol: f64, stats: &mut Stats| {
         let tb = Instant::now();
-        let p = if !with_limits && opt.formulation == Formulation::Dual {
+        let dual_form = opt.formulation != Formulation::Direct;
+        let p = if !with_limits && dual_form {
             crate::dual::build_relaxed(r)
         } else {
             socp::build(r, with_limits)
         };
         stats.build_seconds += tb.elapsed().as_secs_f64();
-        let (out, info) = socp::solve_tol(&p, opt.max_iter, tol);
         stats.solves += 1;
+        if p.dual && opt.formulation == Formulation::Structured {
+            let ts = Instant::now();
+            let res = crate::ipm::solve(&p, tol, opt.max_iter);
+            stats.solve_seconds += ts.elapsed().as_secs_f64();
+            match res {
+                Ok((x, info)) => {
+                    stats.iterations += info.iterations;
+                    return (p, Outcome::Optimal(x));
+                }
+                Err(crate::ipm::Declined::NotConverged { iterations }) => {
+                    stats.iterations += iterations;
+                    stats.fallbacks += 1;
+                }
+                Err(_) => stats.fallbacks += 1,
+            }
+        }
+        let (out, info) = socp::solve_tol(&p, opt.max_iter, tol);
         stats.iterations += info.iterations;
         stats.solve_seconds += info.seconds;
         (p, out)

@@ -5,6 +5,8 @@
 //!   file format (JSON/TOML, see README.md);
 //! - [`socp`]: the sparse equilibrium system Zx = b (29) and the cone programs (41)/(51);
 //! - [`dual`]: the relaxed program (41) in its equilibrium-multiplier (dual) form (fast);
+//! - [`ipm`]: our interior-point method for that form, on the normal equations factorised by
+//!   [`blockchol`] (6×6 blocks over the module graph; default solver, Clarabel as fallback);
 //! - [`gate`]: Theorem 2 verdicts, margins (42)/(52), broken connections (44), the
 //!   determinate-tree fast path;
 //! - [`range`]: admissible external load at a point by bisection (SOCP 4.1);
@@ -14,9 +16,11 @@
 #![warn(missing_docs)]
 
 pub mod bench_problems;
+pub mod blockchol;
 pub mod dual;
 pub mod gate;
 pub mod io;
+pub mod ipm;
 pub mod model;
 pub mod picture;
 pub mod puzzlebot;

@@ -122,99 +122,119 @@ fn same_kind(a: &Verdict, b: &Verdict) -> bool {
 #[test]
 fn dual_form_agrees_with_direct_form_on_random_assemblies() {
     let mut seen = [0usize; 3];
+    let mut structured = [0usize; 2];
     for seed in 0..90u64 {
         let a = random_case(seed);
         let reference = run(&a, Formulation::Direct);
-        let fast = run(&a, Formulation::Dual);
-        assert!(
-            same_kind(&reference.verdict, &fast.verdict),
-            "seed {seed}: direct {:?} vs dual {:?}",
-            reference.verdict,
-            fast.verdict
-        );
-        match reference.verdict {
-            Verdict::Stable => seen[0] += 1,
-            Verdict::InternalInstability => seen[1] += 1,
-            Verdict::WholeBodyInstability => seen[2] += 1,
-            Verdict::NotProven { .. } => panic!("seed {seed}: not proven"),
-        }
-        // Critical state: the maximum strength w_A^max is unique; the margin (42) too when the
-        // connection that sets it is the critical one, and within solver tolerance otherwise.
-        if let (Some(w1), Some(w2)) = (reference.max_strength, fast.max_strength) {
+        for form in [Formulation::Dual, Formulation::Structured] {
+            let fast = run(&a, form);
+            // The structured solver answers every feasible relaxed program itself; only the
+            // infeasible ones (whole-body instability) go to Clarabel for their certificate.
+            if form == Formulation::Structured {
+                let infeasible = fast.verdict == Verdict::WholeBodyInstability;
+                assert_eq!(
+                    fast.stats.fallbacks > 0,
+                    infeasible,
+                    "seed {seed}: {:?} with {} fallbacks",
+                    fast.verdict,
+                    fast.stats.fallbacks
+                );
+                structured[usize::from(infeasible)] += 1;
+            }
             assert!(
-                (w1 - w2).abs() <= 2e-4 * (1.0 + w1.abs()),
-                "seed {seed}: w_max direct {w1} vs dual {w2}"
+                same_kind(&reference.verdict, &fast.verdict),
+                "seed {seed}: direct {:?} vs dual {:?}",
+                reference.verdict,
+                fast.verdict
             );
-        } else {
-            assert_eq!(
-                reference.max_strength.is_some(),
-                fast.max_strength.is_some(),
-                "seed {seed}"
-            );
-        }
-        if reference.verdict == Verdict::Stable {
-            // Same optimum of (41) (both forms are solved at gap/feasibility tolerance 1e-6 first;
-            // measured on seed 11 against a 1e-9 solve: w_max within 2.5e-5 (direct) and
-            // 4.9e-5 (dual) relative, so 2e-4 is the accuracy both promise) ...
-            let (o1, o2) = (objective(&a, &reference), objective(&a, &fast));
-            assert!(
-                (o1 - o2).abs() <= 2e-4 * (1.0 + o1.abs()),
-                "seed {seed}: objective direct {o1} vs dual {o2}"
-            );
-            // ... and the same margin (42). The margin can be set by a non-critical connection,
-            // whose wrench is fixed only by the λ1 term, 10⁴ times lighter than λ_max: it is as
-            // exact as the relative gap (1e-6 of an objective ≈ 10⁴·w_max) allows.
-            let (m1, m2) = (
-                reference.margin.expect("limits"),
-                fast.margin.expect("limits"),
-            );
-            assert!(
-                (m1 - m2).abs() <= 1e-2 * (1.0 + m1.abs()),
-                "seed {seed}: margin direct {m1} vs dual {m2}"
-            );
-        }
-        if reference.verdict == Verdict::InternalInstability {
-            // The same connection uses the most of its limit, by the same amount; the negative
-            // margins agree (non-critical connections are only as exact as the λ1 term allows).
-            let (w1, w2) = (
-                reference.worst_connections(1)[0],
-                fast.worst_connections(1)[0],
-            );
-            assert_eq!(w1.index, w2.index, "seed {seed}: worst connection");
-            let (u1, u2) = (
-                w1.use_of_limit.expect("limited"),
-                w2.use_of_limit.expect("limited"),
-            );
-            assert!(
-                (u1 - u2).abs() <= 1e-3 * u1,
-                "seed {seed}: use {u1} vs {u2}"
-            );
-            let (m1, m2) = (
-                reference.margin.expect("limits"),
-                fast.margin.expect("limits"),
-            );
-            assert!(m1 < 0.0 && m2 < 0.0, "seed {seed}: margins {m1}, {m2}");
-            assert!(
-                (m1 - m2).abs() <= 1e-2 * (1.0 + m1.abs()),
-                "seed {seed}: {m1} vs {m2}"
-            );
-            // Potential broken connections (44): what one form calls critical is within 1e-3 of
-            // w_max in the other (ties inside ε may fall either way).
-            for (x, y) in [(&reference, &fast), (&fast, &reference)] {
-                let wmax = y.max_strength.expect("connections");
-                for c in x.connections.iter().filter(|c| c.critical) {
-                    let other = y.connections[c.index].strength;
-                    assert!(
+            match reference.verdict {
+                Verdict::Stable => seen[0] += 1,
+                Verdict::InternalInstability => seen[1] += 1,
+                Verdict::WholeBodyInstability => seen[2] += 1,
+                Verdict::NotProven { .. } => panic!("seed {seed}: not proven"),
+            }
+            // Critical state: the maximum strength w_A^max is unique; the margin (42) too when the
+            // connection that sets it is the critical one, and within solver tolerance otherwise.
+            if let (Some(w1), Some(w2)) = (reference.max_strength, fast.max_strength) {
+                assert!(
+                    (w1 - w2).abs() <= 2e-4 * (1.0 + w1.abs()),
+                    "seed {seed}: w_max direct {w1} vs dual {w2}"
+                );
+            } else {
+                assert_eq!(
+                    reference.max_strength.is_some(),
+                    fast.max_strength.is_some(),
+                    "seed {seed}"
+                );
+            }
+            if reference.verdict == Verdict::Stable {
+                // Same optimum of (41) (both forms are solved at gap/feasibility tolerance 1e-6 first;
+                // measured on seed 11 against a 1e-9 solve: w_max within 2.5e-5 (direct) and
+                // 4.9e-5 (dual) relative, so 2e-4 is the accuracy both promise) ...
+                let (o1, o2) = (objective(&a, &reference), objective(&a, &fast));
+                assert!(
+                    (o1 - o2).abs() <= 2e-4 * (1.0 + o1.abs()),
+                    "seed {seed}: objective direct {o1} vs dual {o2}"
+                );
+                // ... and the same margin (42). The margin can be set by a non-critical connection,
+                // whose wrench is fixed only by the λ1 term, 10⁴ times lighter than λ_max: it is as
+                // exact as the relative gap (1e-6 of an objective ≈ 10⁴·w_max) allows.
+                let (m1, m2) = (
+                    reference.margin.expect("limits"),
+                    fast.margin.expect("limits"),
+                );
+                assert!(
+                    (m1 - m2).abs() <= 1e-2 * (1.0 + m1.abs()),
+                    "seed {seed}: margin direct {m1} vs dual {m2}"
+                );
+            }
+            if reference.verdict == Verdict::InternalInstability {
+                // The same connection uses the most of its limit, by the same amount; the negative
+                // margins agree (non-critical connections are only as exact as the λ1 term allows).
+                let (w1, w2) = (
+                    reference.worst_connections(1)[0],
+                    fast.worst_connections(1)[0],
+                );
+                assert_eq!(w1.index, w2.index, "seed {seed}: worst connection");
+                let (u1, u2) = (
+                    w1.use_of_limit.expect("limited"),
+                    w2.use_of_limit.expect("limited"),
+                );
+                assert!(
+                    (u1 - u2).abs() <= 1e-3 * u1,
+                    "seed {seed}: use {u1} vs {u2}"
+                );
+                let (m1, m2) = (
+                    reference.margin.expect("limits"),
+                    fast.margin.expect("limits"),
+                );
+                assert!(m1 < 0.0 && m2 < 0.0, "seed {seed}: margins {m1}, {m2}");
+                assert!(
+                    (m1 - m2).abs() <= 1e-2 * (1.0 + m1.abs()),
+                    "seed {seed}: {m1} vs {m2}"
+                );
+                // Potential broken connections (44): what one form calls critical is within 1e-3 of
+                // w_max in the other (ties inside ε may fall either way).
+                for (x, y) in [(&reference, &fast), (&fast, &reference)] {
+                    let wmax = y.max_strength.expect("connections");
+                    for c in x.connections.iter().filter(|c| c.critical) {
+                        let other = y.connections[c.index].strength;
+                        assert!(
                         wmax - other <= 1e-3 * wmax,
                         "seed {seed}: connection {} critical in one form only ({other} vs {wmax})",
                         c.index
                     );
+                    }
                 }
             }
         }
     }
     // Every verdict occurred, so the comparison covered all of Theorem 2.
     assert!(seen.iter().all(|&k| k > 0), "verdicts seen: {seen:?}");
+    assert!(
+        structured.iter().all(|&k| k > 0),
+        "structured: {structured:?}"
+    );
 }
 
 #[test]
@@ -291,7 +311,11 @@ fn dual_form_handles_empty_rows_and_floating_modules() {
             com: [0.0; 3],
             fixed: false,
         });
-        for f in [Formulation::Direct, Formulation::Dual] {
+        for f in [
+            Formulation::Direct,
+            Formulation::Dual,
+            Formulation::Structured,
+        ] {
             let r = run(&a, f);
             assert_eq!(r.verdict, expected, "mass {mass}, {f:?}");
         }
@@ -299,7 +323,11 @@ fn dual_form_handles_empty_rows_and_floating_modules() {
     // Contacts only, no connection (no w_A^max): a single block on the ground.
     let mut a = Family::Chain.build(1, 1);
     a.connections.clear();
-    for f in [Formulation::Direct, Formulation::Dual] {
+    for f in [
+        Formulation::Direct,
+        Formulation::Dual,
+        Formulation::Structured,
+    ] {
         let r = run(&a, f);
         assert_eq!(r.verdict, Verdict::Stable, "{f:?}");
         let fz: f64 = r.contacts.iter().map(|c| c.force[2]).sum();

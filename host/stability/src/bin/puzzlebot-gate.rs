@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use puzzlebot_stability::bench_problems::{thread_cpu_seconds, Family};
+use puzzlebot_stability::{Formulation, Options};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -33,6 +34,10 @@ enum Cmd {
         /// Repetitions per file.
         #[arg(long, default_value_t = 5)]
         repeat: usize,
+        /// How the relaxed program is solved: structured (default; our block interior-point
+        /// method), dual (Clarabel on the dual form), direct (Clarabel on the direct form).
+        #[arg(long, value_enum, default_value_t = Formulation::Structured)]
+        form: Formulation,
     },
     /// Write a benchmark problem as JSON (families: chain, mesh, tree-ground, tree-hanging).
     Export {
@@ -65,7 +70,15 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         },
-        Cmd::Time { files, repeat } => {
+        Cmd::Time {
+            files,
+            repeat,
+            form,
+        } => {
+            let opt = Options {
+                formulation: form,
+                ..Options::default()
+            };
             for f in files {
                 let a = match puzzlebot_stability::load_assembly(&f) {
                     Ok(a) => a,
@@ -80,7 +93,7 @@ fn main() -> ExitCode {
                 for _ in 0..repeat.max(1) {
                     let c0 = thread_cpu_seconds();
                     let t = std::time::Instant::now();
-                    let r = match puzzlebot_stability::evaluate(&a) {
+                    let r = match puzzlebot_stability::evaluate_with(&a, opt) {
                         Ok(r) => r,
                         Err(e) => {
                             eprintln!("error: {}: {e}", f.display());
@@ -103,7 +116,7 @@ fn main() -> ExitCode {
                 let n = a.modules.len();
                 if let Some(r) = last {
                     println!(
-                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms cpu median {cpu_median} ({:.1} µs/module) path={:?} iters={}",
+                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms cpu median {cpu_median} ({:.1} µs/module) path={:?} iters={} fallbacks={}",
                         f.display(),
                         r.verdict.name(),
                         r.max_strength.unwrap_or(f64::NAN),
@@ -111,7 +124,8 @@ fn main() -> ExitCode {
                         times[times.len() / 2] * 1e3,
                         times[0] * 1e6 / n as f64,
                         r.stats.path,
-                        r.stats.iterations
+                        r.stats.iterations,
+                        r.stats.fallbacks
                     );
                 }
             }
