@@ -66,7 +66,7 @@ fn bench(c: &mut Criterion) {
                 )
             });
             summary.push(format!(
-                "{:<13} n={:>6}  wall {:>10.3} ms  cpu {:>10.3} ms  {:>8.2} µs/module  §9 {:<14} {:?} {} iters={}",
+                "{:<13} n={:>6}  wall {:>10.3} ms  cpu {:>10.3} ms  {:>8.2} µs/module  §9 {:<14} {:?} {} iters={} fallbacks={}",
                 fam.name(),
                 n,
                 w * 1e3,
@@ -75,7 +75,8 @@ fn bench(c: &mut Criterion) {
                 verdict,
                 rep.stats.path,
                 rep.verdict.name(),
-                rep.stats.iterations
+                rep.stats.iterations,
+                rep.stats.fallbacks
             ));
             if n >= 10_000 {
                 continue; // one measurement is enough at this size

@@ -187,13 +187,18 @@ pub fn render_text(r: &Report) -> String {
     let st = &r.stats;
     let _ = writeln!(
         s,
-        "solve: {:?}, {} modules, {} connections, {} contacts; {} cone program(s), {} iterations; build {:.3} ms, solve {:.3} ms, total {:.3} ms",
+        "solve: {:?}, {} modules, {} connections, {} contacts; {} cone program(s), {} iterations{}; build {:.3} ms, solve {:.3} ms, total {:.3} ms",
         st.path,
         st.size[0],
         st.size[1],
         st.size[2],
         st.solves,
         st.iterations,
+        if st.fallbacks > 0 {
+            format!(" ({} handed to Clarabel)", st.fallbacks)
+        } else {
+            String::new()
+        },
         st.build_seconds * 1e3,
         st.solve_seconds * 1e3,
         st.total_seconds * 1e3

@@ -129,6 +129,10 @@ struct Ipm<'a> {
     neq: usize,
     nlev: usize,
     blocks: Vec<Block>,
+    /// Ranges of nonnegative unknowns (w_A^max included) and the second-order-cone blocks:
+    /// the per-unknown passes run over these (contiguous, vectorisable) instead of all blocks.
+    nn_ranges: Vec<std::ops::Range<usize>>,
+    soc_blocks: Vec<usize>,
     local_a: Vec<f64>,
     pre: Vec<f64>,
     levels: Vec<Level>,
@@ -411,12 +415,27 @@ impl<'a> Ipm<'a> {
             }
         }
         let nblk = blocks.len();
+        let mut nn_ranges = Vec::new();
+        let mut at = 0;
+        for cone in &p.cones {
+            match cone {
+                SupportedConeT::NonnegativeConeT(n) => {
+                    nn_ranges.push(at..at + n);
+                    at += n;
+                }
+                SupportedConeT::SecondOrderConeT(d) => at += d,
+                _ => return Err(Declined::Structure("cone type")),
+            }
+        }
+        let soc_blocks = (0..nblk).filter(|&b| blocks[b].soc).collect();
         Ok(Ipm {
             p,
             nx,
             neq,
             nlev,
             blocks,
+            nn_ranges,
+            soc_blocks,
             local_a,
             pre,
             levels,
@@ -469,14 +488,15 @@ impl<'a> Ipm<'a> {
 
     /// Nesterov–Todd scaling of (x, s) in every cone and λ = W x.
     fn scale(&mut self, x: &[f64], s: &[f64]) {
-        for (bi, blk) in self.blocks.iter().enumerate() {
-            let r = blk.start..blk.start + blk.dim;
-            if !blk.soc {
-                let v = blk.start;
+        for r in &self.nn_ranges {
+            for v in r.clone() {
                 self.w[v] = (s[v] / x[v]).sqrt();
                 self.lambda[v] = (s[v] * x[v]).sqrt();
-                continue;
             }
+        }
+        for &bi in &self.soc_blocks {
+            let blk = &self.blocks[bi];
+            let r = blk.start..blk.start + blk.dim;
             let (xs, ss) = (&x[r.clone()], &s[r.clone()]);
             let dx = soc_det(xs).sqrt();
             let ds = soc_det(ss).sqrt();
@@ -497,26 +517,25 @@ impl<'a> Ipm<'a> {
                 self.lambda[blk.start + k] = lam[k] * self.eta[bi];
             }
         }
-        if let Some((v, _)) = &self.wmax {
-            let v = *v;
-            self.w[v] = (s[v] / x[v]).sqrt();
-            self.lambda[v] = (s[v] * x[v]).sqrt();
-        }
     }
 
     /// out = W v (inverse: W⁻¹ v), cone by cone.
     fn w_mul(&self, v: &[f64], out: &mut [f64], inverse: bool) {
-        for (bi, blk) in self.blocks.iter().enumerate() {
-            let r = blk.start..blk.start + blk.dim;
-            if !blk.soc {
-                let w = self.w[blk.start];
-                out[blk.start] = if inverse {
-                    v[blk.start] / w
-                } else {
-                    v[blk.start] * w
-                };
-                continue;
+        for r in &self.nn_ranges {
+            let (w, vi, o) = (&self.w[r.clone()], &v[r.clone()], &mut out[r.clone()]);
+            if inverse {
+                for k in 0..o.len() {
+                    o[k] = vi[k] / w[k];
+                }
+            } else {
+                for k in 0..o.len() {
+                    o[k] = vi[k] * w[k];
+                }
             }
+        }
+        for &bi in &self.soc_blocks {
+            let blk = &self.blocks[bi];
+            let r = blk.start..blk.start + blk.dim;
             w_bar_mul(
                 &self.w[r.clone()],
                 &v[r.clone()],
@@ -529,10 +548,6 @@ impl<'a> Ipm<'a> {
                 self.eta[bi]
             };
             out[r].iter_mut().for_each(|o| *o *= f);
-        }
-        if let Some((i, _)) = &self.wmax {
-            let w = self.w[*i];
-            out[*i] = if inverse { v[*i] / w } else { v[*i] * w };
         }
     }
 
@@ -1021,22 +1036,13 @@ impl<'a> Ipm<'a> {
     /// rc = λ \ (σμ e − λ∘λ − a∘b), cone by cone.
     fn combined_rc(&self, sm: f64, a: &[f64], b: &[f64], rc: &mut [f64]) {
         let lam = &self.lambda;
-        let mut one = |i: usize| {
-            let t = sm - lam[i] * lam[i] - a[i] * b[i];
-            rc[i] = t / lam[i];
-        };
-        if let Some((v, _)) = &self.wmax {
-            one(*v);
-        }
-        for blk in &self.blocks {
-            if !blk.soc {
-                one(blk.start);
+        for r in &self.nn_ranges {
+            for i in r.clone() {
+                rc[i] = (sm - lam[i] * lam[i] - a[i] * b[i]) / lam[i];
             }
         }
-        for blk in &self.blocks {
-            if !blk.soc {
-                continue;
-            }
+        for &bi in &self.soc_blocks {
+            let blk = &self.blocks[bi];
             let r = blk.start..blk.start + blk.dim;
             let (l, av, bv) = (&lam[r.clone()], &a[r.clone()], &b[r.clone()]);
             let mut t = [0.0; 8];
@@ -1062,24 +1068,17 @@ impl<'a> Ipm<'a> {
     /// Largest α with v + α d in K (infinite when d never leaves).
     fn max_step(&self, v: &[f64], d: &[f64]) -> f64 {
         let mut alpha = f64::INFINITY;
-        let mut nonneg = |i: usize| {
-            if d[i] < 0.0 {
-                alpha = alpha.min(-v[i] / d[i]);
-            }
-        };
-        if let Some((i, _)) = &self.wmax {
-            nonneg(*i);
-        }
-        for blk in &self.blocks {
-            if !blk.soc {
-                nonneg(blk.start);
+        for r in &self.nn_ranges {
+            for i in r.clone() {
+                if d[i] < 0.0 {
+                    alpha = alpha.min(-v[i] / d[i]);
+                }
             }
         }
-        for blk in &self.blocks {
-            if blk.soc {
-                let r = blk.start..blk.start + blk.dim;
-                alpha = alpha.min(soc_step(&v[r.clone()], &d[r]));
-            }
+        for &bi in &self.soc_blocks {
+            let blk = &self.blocks[bi];
+            let r = blk.start..blk.start + blk.dim;
+            alpha = alpha.min(soc_step(&v[r.clone()], &d[r]));
         }
         alpha
     }
@@ -1168,6 +1167,7 @@ fn soc_det(x: &[f64]) -> f64 {
 
 /// out = W̄ v (or W̄⁻¹ v = J W̄ J v) for the normalised scaling point w̄ (det w̄ = 1):
 /// W̄ = [[w̄0, w̄1ᵀ], [w̄1, I + w̄1 w̄1ᵀ/(1 + w̄0)]].
+#[inline]
 fn w_bar_mul(wb: &[f64], v: &[f64], out: &mut [f64], inverse: bool) {
     let sgn = if inverse { -1.0 } else { 1.0 };
     let mut w1v1 = 0.0;
