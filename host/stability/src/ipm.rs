@@ -396,21 +396,32 @@ impl<'a> Ipm<'a> {
             let nr = blk.rows();
             let la = &local_a[blk.a_off..blk.a_off + nr * blk.dim];
             // Column signs: J for a cone off the level rows, F (columns 1..) for a head.
-            let sign = |c: usize| -> f64 {
-                match (blk.soc, blk.level.is_some(), c) {
-                    (true, true, 0) => 0.0,
-                    (true, false, 0) => 1.0,
-                    (true, false, _) => -1.0,
-                    _ => 1.0,
+            let mut sign = [1.0; 8];
+            if blk.soc {
+                for (c, sg) in sign.iter_mut().enumerate().take(blk.dim) {
+                    *sg = match (blk.level.is_some(), c) {
+                        (true, 0) => 0.0,
+                        (false, 0) => 1.0,
+                        _ if blk.level.is_some() => 1.0,
+                        _ => -1.0,
+                    };
                 }
-            };
-            for r in 0..nm {
-                for q in 0..nm {
-                    let mut v = 0.0;
-                    for c in 0..blk.dim {
-                        v += sign(c) * la[c * nr + r] * la[c * nr + q];
+            }
+            let base = pre.len();
+            pre.resize(base + nm * nm, 0.0);
+            let pm = &mut pre[base..];
+            for c in 0..blk.dim {
+                if sign[c] == 0.0 {
+                    continue;
+                }
+                let col = &la[c * nr..c * nr + nm];
+                for r in 0..nm {
+                    let f = sign[c] * col[r];
+                    if f != 0.0 {
+                        for q in 0..nm {
+                            pm[r * nm + q] += f * col[q];
+                        }
                     }
-                    pre.push(v);
                 }
             }
         }
