@@ -707,6 +707,17 @@ impl<'a> Ipm<'a> {
         Ok(())
     }
 
+    /// [`Self::factor`], raising the static regularisation (up to [`MAX_REG`]) while the
+    /// block factorisation finds a non-positive pivot.
+    fn factor_regularised(&mut self) -> Result<(), Declined> {
+        loop {
+            match self.factor() {
+                Err(Declined::Factor) if self.reg < MAX_REG => self.reg *= 10.0,
+                r => return r,
+            }
+        }
+    }
+
     /// v = R⁻¹ r, M0 = R Rᵀ, R = [[G^½, 0], [H G^-½, L]] over (level rows, module rows);
     /// v's module part is in the block factor's order.
     fn r_inv(&mut self, r: &[f64], v: &mut [f64]) {
@@ -775,7 +786,7 @@ impl<'a> Ipm<'a> {
         self.identity(&mut x);
         self.identity(&mut s);
         self.scale(&x, &s);
-        self.factor()?;
+        self.factor_regularised()?;
         let mut tm = vec![0.0; m];
         let mut tx = vec![0.0; nx];
         let b = self.b.clone();
@@ -846,7 +857,7 @@ impl<'a> Ipm<'a> {
             // A direction the refinement cannot make accurate is retried with a stronger
             // static regularisation (kept for the following iterations).
             loop {
-                self.factor()?;
+                self.factor_regularised()?;
                 // Predictor: rc = −λ.
                 for i in 0..nx {
                     rc[i] = -self.lambda[i];
