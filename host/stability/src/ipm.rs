@@ -98,8 +98,9 @@ struct Block {
     level_pos: [usize; 2],
     /// Offset of its local dense A (rows: 6 per node, then the level row; column-major).
     a_off: usize,
-    /// Offset of its constant module-row matrix P (6·nnode square, row-major): a aᵀ
-    /// (nonnegative), A J Aᵀ (cone), F Fᵀ (strength cone head: its module columns F).
+    /// Offset of its constant module-row matrix P (6·nnode square, row-major) of a cone:
+    /// A J Aᵀ, or F Fᵀ for a strength cone head (its module columns F). None for a
+    /// nonnegative unknown (rank one: a aᵀ from its column).
     p_off: usize,
     /// Slots of the diagonal blocks of its nodes and of the off-diagonal block.
     diag: [Option<Slot>; 2],
@@ -392,8 +393,8 @@ impl<'a> Ipm<'a> {
         for blk in &mut blocks {
             let nm = B * blk.nnode;
             blk.p_off = pre.len();
-            if nm == 0 {
-                continue;
+            if nm == 0 || !blk.soc {
+                continue; // a nonnegative unknown's a aᵀ is rank one: built from a directly
             }
             let nr = blk.rows();
             let la = &local_a[blk.a_off..blk.a_off + nr * blk.dim];
@@ -577,11 +578,11 @@ impl<'a> Ipm<'a> {
                 continue;
             }
             let la = &self.local_a[blk.a_off..blk.a_off + nr * blk.dim];
-            let pm = &self.pre[blk.p_off..blk.p_off + nm * nm];
             // G = A_loc W⁻² A_locᵀ: for a cone W⁻² = (2 u uᵀ − J)/η², u = J w̄, so
             // G = (2 (A u)(A u)ᵀ − A J Aᵀ)/η²; for a nonnegative unknown G = a aᵀ/w².
             let mut q = [0.0; MAX_ROWS];
             if blk.soc {
+                let pm = &self.pre[blk.p_off..blk.p_off + nm * nm];
                 let wb = &self.w[blk.start..blk.start + blk.dim];
                 for c in 0..blk.dim {
                     let u = if c == 0 { wb[0] } else { -wb[c] };
@@ -595,22 +596,23 @@ impl<'a> Ipm<'a> {
                     blk.nnode,
                     &blk.diag,
                     blk.off,
-                    pm,
+                    Some(pm),
                     -inv_e2,
                     &q,
                     2.0 * inv_e2,
                 );
             } else {
                 let w = self.w[blk.start];
+                q[..nm].copy_from_slice(&la[..nm]);
                 add_sym(
                     &mut self.chol,
                     blk.nnode,
                     &blk.diag,
                     blk.off,
-                    pm,
-                    1.0 / (w * w),
-                    &q,
+                    None,
                     0.0,
+                    &q,
+                    1.0 / (w * w),
                 );
             }
         }
@@ -647,7 +649,7 @@ impl<'a> Ipm<'a> {
                     lev.nnode,
                     &lev.diag,
                     lev.off,
-                    pm,
+                    Some(pm),
                     1.0 / eta2,
                     &fu,
                     -kappa / eta2,
@@ -664,19 +666,20 @@ impl<'a> Ipm<'a> {
                 let al = la[nr - 1];
                 g = d * al * al + d_t;
                 let k = d * d_t / g;
+                let mut a = [0.0; MAX_ROWS];
                 for r in 0..nm {
                     h[r] = d * al * la[r];
+                    a[r] = la[r];
                 }
-                let pm = &self.pre[hb.p_off..hb.p_off + nm * nm];
                 add_sym(
                     &mut self.chol,
                     lev.nnode,
                     &lev.diag,
                     lev.off,
-                    pm,
-                    k,
-                    &[0.0; MAX_ROWS],
+                    None,
                     0.0,
+                    &a,
+                    k,
                 );
             }
             if !(g > 0.0 && g.is_finite()) {
@@ -1145,15 +1148,15 @@ impl<'a> Ipm<'a> {
     }
 }
 
-/// Add c1·P + c2·q qᵀ (module rows: 6 per node, P row-major, 6·nnode square) to the block
-/// matrix, block by block.
+/// Add c1·P + c2·q qᵀ (module rows: 6 per node, P row-major, 6·nnode square; no P: c2·q qᵀ
+/// only) to the block matrix, block by block.
 #[allow(clippy::too_many_arguments)]
 fn add_sym(
     chol: &mut BlockCholesky,
     nnode: usize,
     diag: &[Option<Slot>; 2],
     off: Option<Slot>,
-    pm: &[f64],
+    pm: Option<&[f64]>,
     c1: f64,
     q: &[f64; MAX_ROWS],
     c2: f64,
@@ -1162,12 +1165,16 @@ fn add_sym(
     let mut blk = [0.0; 36];
     let mut put = |chol: &mut BlockCholesky, slot: Slot, a: usize, b: usize| {
         for r in 0..B {
-            let (ra, qa) = (
-                &pm[(a * B + r) * nm + b * B..(a * B + r) * nm + b * B + B],
-                q[a * B + r],
-            );
+            let qa = c2 * q[a * B + r];
+            let qb: &[f64; B] = q[b * B..b * B + B].try_into().unwrap_or(&[0.0; B]);
             for c in 0..B {
-                blk[r * B + c] = c1 * ra[c] + c2 * qa * q[b * B + c];
+                blk[r * B + c] = qa * qb[c];
+            }
+            if let Some(pm) = pm {
+                let o = (a * B + r) * nm + b * B;
+                for c in 0..B {
+                    blk[r * B + c] += c1 * pm[o + c];
+                }
             }
         }
         chol.add(slot, &blk);
