@@ -319,7 +319,7 @@ impl<'a> Ipm<'a> {
         }
         let chol = BlockCholesky::new(nnode, &edges);
         // Local dense A of every block, its level positions and slots.
-        let mut local_a = Vec::new();
+        let mut local_a = Vec::with_capacity(blocks.iter().map(|b| b.rows() * b.dim).sum());
         for blk in &mut blocks {
             blk.a_off = local_a.len();
             let nr = blk.rows();
@@ -389,7 +389,13 @@ impl<'a> Ipm<'a> {
             return Err(Declined::Structure("a level row without its slack or head"));
         }
         // Constant parts of every block's contribution (module rows only).
-        let mut pre = Vec::new();
+        let mut pre = Vec::with_capacity(
+            blocks
+                .iter()
+                .filter(|b| b.soc)
+                .map(|b| (B * b.nnode).pow(2))
+                .sum(),
+        );
         for blk in &mut blocks {
             let nm = B * blk.nnode;
             blk.p_off = pre.len();
