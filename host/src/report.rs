@@ -73,13 +73,21 @@ impl RunFolder {
             })
             .collect();
         let stamp = utc_stamp();
-        let mut dir = base.join(format!("{stamp}-{safe}"));
+        std::fs::create_dir_all(base)?;
+        // `create_dir` fails on an existing folder, so two runs started in the same second
+        // (two processes) never share one.
         let mut i = 1;
-        while dir.exists() {
-            i += 1;
-            dir = base.join(format!("{stamp}-{safe}-{i}"));
-        }
-        std::fs::create_dir_all(&dir)?;
+        let dir = loop {
+            let dir = match i {
+                1 => base.join(format!("{stamp}-{safe}")),
+                _ => base.join(format!("{stamp}-{safe}-{i}")),
+            };
+            match std::fs::create_dir(&dir) {
+                Ok(()) => break dir,
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => i += 1,
+                Err(e) => return Err(e),
+            }
+        };
         Ok(RunFolder {
             telemetry: BufWriter::new(File::create(dir.join("telemetry.jsonl"))?),
             events: BufWriter::new(File::create(dir.join("events.jsonl"))?),
@@ -298,5 +306,23 @@ mod tests {
         let lines = std::fs::read_to_string(f.dir().join("telemetry.jsonl")).expect("read");
         assert_eq!(lines.lines().count(), 1);
         assert_eq!(utc_stamp().len(), 15);
+    }
+
+    #[test]
+    fn runs_started_together_get_folders_of_their_own() {
+        // Two processes starting a run in the same second once shared a folder (checked,
+        // then created: both saw it missing) and interleaved their telemetry.
+        let base = std::env::temp_dir().join(format!("pb-runs-race-{}", std::process::id()));
+        let dirs: Vec<std::path::PathBuf> = std::thread::scope(|s| {
+            let hs: Vec<_> = (0..8)
+                .map(|_| s.spawn(|| RunFolder::create(&base, "race").expect("create")))
+                .collect();
+            hs.into_iter()
+                .map(|h| h.join().expect("thread").dir().to_path_buf())
+                .collect()
+        });
+        let unique: std::collections::BTreeSet<_> = dirs.iter().collect();
+        assert_eq!(unique.len(), dirs.len(), "{dirs:?}");
+        std::fs::remove_dir_all(&base).ok();
     }
 }
