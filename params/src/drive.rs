@@ -45,8 +45,30 @@ impl Drive {
     }
 }
 
+impl Drive {
+    /// Smallest turning radius the butterfly set allows (m): |ω| ≤ (A_ω / A_v)|v| on its
+    /// edge O–A (THESIS 3.5.1), so v / ω ≥ A_v / |A_ω| at any speed. Pilot 0.61 m,
+    /// non-pilot 17 mm.
+    pub fn min_turn_radius(&self) -> f64 {
+        f64::from(self.butterfly_a[0]) / f64::from(self.butterfly_a[1].abs()).max(1e-9)
+    }
+}
+
 impl Default for Drive {
     fn default() -> Self {
         Drive::for_kind(RobotKind::NonPilot)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pilot_turns_no_tighter_than_0_6_m() {
+        let pilot = Drive::for_kind(RobotKind::Pilot).min_turn_radius();
+        let non_pilot = Drive::for_kind(RobotKind::NonPilot).min_turn_radius();
+        assert!((pilot - 0.34 / 0.561).abs() < 1e-6, "{pilot}");
+        assert!((non_pilot - 0.037 / 2.19).abs() < 1e-6, "{non_pilot}");
     }
 }

@@ -312,9 +312,15 @@ pub enum PlanError {
     #[error("robot id {0} appears twice")]
     DuplicateRobot(RobotId),
     /// More than one pilot for a grown shape: lone pilots are not driven (THESIS 3.5.2), so
-    /// only the seed may be one.
-    #[error("{0} pilots: a shape grown around one robot takes in at most one pilot (lone pilots are not driven, THESIS 3.5.2; a second one would have to be towed by a train)")]
-    GrowPilots(usize),
+    /// only the seed may be one; bringing another would take a train that turns a pilot, and
+    /// a pilot turns no tighter than its butterfly allows.
+    #[error("{pilots} pilots: a shape grown around one robot takes in at most one pilot (lone pilots are not driven, THESIS 3.5.2; a second one would have to be brought by a train, and a pilot turns no tighter than {radius:.2} m, THESIS 3.5.1 — no such manoeuvre is implemented)")]
+    GrowPilots {
+        /// Pilots in the fleet (or 2: a non-pilot seed with a pilot elsewhere).
+        pilots: usize,
+        /// The pilot's smallest turning radius (m).
+        radius: f64,
+    },
     /// The robot to grow the shape around is not in the fleet.
     #[error("seed robot {0} is not in the fleet")]
     UnknownSeed(RobotId),

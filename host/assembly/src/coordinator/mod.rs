@@ -448,6 +448,9 @@ pub struct CoordinatorConfig {
     /// (s): the last join can knock an earlier pair loose (measured in lockstep: a pair came
     /// apart 0.1 s after the last one connected, and the run ended with it apart).
     pub form_settle_s: f64,
+    /// Smallest turning radius of a pilot (m,
+    /// [`puzzlebot_params::drive::Drive::min_turn_radius`]).
+    pub pilot_turn_radius: f64,
 }
 
 impl Default for CoordinatorConfig {
@@ -461,6 +464,8 @@ impl Default for CoordinatorConfig {
             dt: 0.1,
             heading_gain: 1.0,
             dock: DockConfig::default(),
+            pilot_turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::Pilot)
+                .min_turn_radius(),
         }
     }
 }
@@ -550,6 +555,7 @@ impl Coordinator {
         let cfg = CoordinatorConfig {
             tolerances: PairTolerances::from_params(&g, &p.non_pilot.coupling),
             dt: 1.0 / f64::from(p.rates.mpc_hz).max(1e-3),
+            pilot_turn_radius: p.pilot.drive.min_turn_radius(),
             ..CoordinatorConfig::default()
         };
         Coordinator::new(g, cfg)
@@ -700,10 +706,18 @@ impl Coordinator {
             .map(|r| r.id)
             .collect();
         if pilots.len() > 1 {
-            return Err(PlanError::GrowPilots(pilots.len()));
+            return Err(PlanError::GrowPilots {
+                pilots: pilots.len(),
+                radius: self.cfg.pilot_turn_radius,
+            });
         }
         let seed = match (seed, pilots.first()) {
-            (Some(s), Some(&p)) if s != p => return Err(PlanError::GrowPilots(2)),
+            (Some(s), Some(&p)) if s != p => {
+                return Err(PlanError::GrowPilots {
+                    pilots: 2,
+                    radius: self.cfg.pilot_turn_radius,
+                })
+            }
             (Some(s), _) => s,
             (None, Some(&p)) => p,
             (None, None) => Self::central(&states).ok_or(PlanError::NotEnoughRobots {
@@ -1542,10 +1556,14 @@ mod tests {
         ];
         robots[0].kind = RobotKind::Pilot;
         robots[2].kind = RobotKind::Pilot;
-        assert!(matches!(
-            c.form_grown(0.0, ShapeSpec::Line, &robots, None),
-            Err(PlanError::GrowPilots(2))
-        ));
+        let err = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap_err();
+        assert!(
+            matches!(err, PlanError::GrowPilots { pilots: 2, .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("0.61 m"), "{err}");
         robots[2].kind = RobotKind::NonPilot;
         let plan = c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
         // Built on the pilot, where it stands.
