@@ -43,9 +43,7 @@ impl Drive {
             },
         }
     }
-}
 
-impl Drive {
     /// Smallest turning radius the butterfly set allows (m): |ω| ≤ (A_ω / A_v)|v| on its
     /// edge O–A (THESIS 3.5.1), so v / ω ≥ A_v / |A_ω| at any speed. Pilot 0.61 m,
     /// non-pilot 17 mm.
