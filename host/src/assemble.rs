@@ -902,17 +902,32 @@ fn write_events(folder: &mut RunFolder, ctl: &AssemblyController) -> anyhow::Res
 
 /// A simulated fleet for an assembly scenario without a simulator file: `n` non-pilot robots
 /// (the first `pilots` ids are pilots) scattered deterministically from `seed` in a 0.6 m
-/// square around the origin, at least 0.12 m apart.
+/// square around the origin, at least 0.12 m apart. Pilots after the first are set down as a
+/// lab would, in its lane: [`LANE_GAP`] apart behind it, facing the same way, a few
+/// millimetres and hundredths of a radian off (a lone pilot is not driven and moves straight
+/// only, THESIS 3.5.2 and 5.4.1; growing a shape takes two pilots so).
 pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Scenario {
     use rand::{Rng, SeedableRng};
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let mut poses: Vec<[f64; 3]> = Vec::new();
     while poses.len() < n {
-        let p = [
-            rng.random_range(-0.3..0.3),
-            rng.random_range(-0.3..0.3),
-            rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
-        ];
+        let p = match poses.first() {
+            Some(q) if poses.len() < pilots => {
+                let back = LANE_GAP * poses.len() as f64;
+                let side = rng.random_range(-0.003..0.003);
+                let (s, c) = q[2].sin_cos();
+                [
+                    q[0] - back * c - side * s,
+                    q[1] - back * s + side * c,
+                    q[2] + rng.random_range(-0.02..0.02),
+                ]
+            }
+            _ => [
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-0.3..0.3),
+                rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+            ],
+        };
         if poses
             .iter()
             .all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) > 0.12)
@@ -941,6 +956,11 @@ pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Sce
         ..puzzlebot_sim::Scenario::default()
     }
 }
+
+/// Distance between pilots set down in one lane by [`scattered_fleet`] (m): room for a
+/// non-pilot's staged approach to the back one's front (its place, stand-off and route
+/// clearance) with the front one still ahead.
+pub const LANE_GAP: f64 = 0.4;
 
 /// Human-readable summary of an assembly run.
 pub fn describe(r: &AssemblyReport) -> String {

@@ -75,6 +75,11 @@ enum Cmd {
         /// Time limit of an assembly run (s).
         #[arg(long, default_value_t = 300.0)]
         limit: f64,
+        /// Run an assembly scenario with the controller in lockstep with the simulator
+        /// (simulated time as fast as the machine computes it, no network) instead of in
+        /// real time over loopback UDP.
+        #[arg(long)]
+        lockstep: bool,
         /// Fleet config (TOML).
         #[arg(long, required_unless_present = "scenario")]
         fleet: Option<PathBuf>,
@@ -258,6 +263,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             pilots,
             seed,
             limit,
+            lockstep,
             ..
         } => {
             let params = puzzlebot_params::FleetParams::default();
@@ -266,7 +272,15 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(p) => Scenario::from_file(&p)?,
                 None => assemble::scattered_fleet(robots, pilots, seed),
             };
-            let report = assemble::run_scenario(scenario, sim, &runs, limit, None).await?;
+            let report = if lockstep {
+                let runs = runs.clone();
+                tokio::task::spawn_blocking(move || {
+                    assemble::run_scenario_lockstep(scenario, sim, &runs, limit)
+                })
+                .await??
+            } else {
+                assemble::run_scenario(scenario, sim, &runs, limit, None).await?
+            };
             print!("{}", assemble::describe(&report));
             assemble::ensure_finished(&report)?;
         }

@@ -311,15 +311,41 @@ pub enum PlanError {
     /// Two robots share an id.
     #[error("robot id {0} appears twice")]
     DuplicateRobot(RobotId),
-    /// More than one pilot for a grown shape: lone pilots are not driven (THESIS 3.5.2), so
-    /// only the seed may be one; bringing another would take a train that turns a pilot, and
-    /// a pilot turns no tighter than its butterfly allows.
-    #[error("{pilots} pilots: a shape grown around one robot takes in at most one pilot (lone pilots are not driven, THESIS 3.5.2; a second one would have to be brought by a train, and a pilot turns no tighter than {radius:.2} m, THESIS 3.5.1 — no such manoeuvre is implemented)")]
+    /// More than two pilots for a grown shape, or a seed other than the front pilot: lone
+    /// pilots are not driven (THESIS 3.5.2) and a second one is brought in by a train driving
+    /// straight along its lane; turning one is out (a pilot turns no tighter than its
+    /// butterfly allows).
+    #[error("{pilots} pilots: a shape grown around one robot takes in the seed pilot and at most one more, set down in its lane, the seed being the front one (lone pilots are not driven, THESIS 3.5.2; any other would have to be turned by a train, and a pilot turns no tighter than {radius:.2} m, THESIS 3.5.1 — no such manoeuvre is implemented)")]
     GrowPilots {
         /// Pilots in the fleet (or 2: a non-pilot seed with a pilot elsewhere).
         pilots: usize,
         /// The pilot's smallest turning radius (m).
         radius: f64,
+    },
+    /// Two pilots that do not stand in one lane (THESIS 5.4.1: pilots move straight only).
+    #[error("pilots {seed} and {pilot} do not stand in one lane: pilot {pilot} is {lateral:.3} m off pilot {seed}'s axis and turned {yaw:.2} rad from it (at most {max_lateral} m and {max_yaw} rad; pilots drive straight only, THESIS 5.4.1: set the second one down behind the first, facing the same way)")]
+    PilotsNotInLane {
+        /// The front pilot (the seed).
+        seed: RobotId,
+        /// The other one.
+        pilot: RobotId,
+        /// Its distance from the seed's axis (m).
+        lateral: f64,
+        /// Its heading relative to the seed's (rad).
+        yaw: f64,
+        /// [`LANE_TOLERANCE`].0.
+        max_lateral: f64,
+        /// [`LANE_TOLERANCE`].1.
+        max_yaw: f64,
+    },
+    /// No placement of the shape on the seed puts the lane pilot's slot ahead of it on its
+    /// axis with a non-pilot slot linking the two.
+    #[error("the shape has no placement on pilot {seed} with a slot ahead of pilot {pilot} on its axis, linked to pilot {seed}'s through one non-pilot's anchor pairs")]
+    NoLanePlace {
+        /// The seed pilot.
+        seed: RobotId,
+        /// The lane pilot.
+        pilot: RobotId,
     },
     /// The robot to grow the shape around is not in the fleet.
     #[error("seed robot {0} is not in the fleet")]
@@ -360,6 +386,27 @@ pub fn assign_around(
     seed: RobotId,
     g: &Geometry,
 ) -> Result<Plan, PlanError> {
+    assign_around_lane(spec, robots, seed, None, g)
+}
+
+/// How far a second pilot may stand off the seed pilot's axis (m) and how far its heading may
+/// differ (rad) for [`assign_around_lane`]: it is brought in by a train that drives straight
+/// along its axis (a pilot turns no tighter than 0.61 m, THESIS 3.5.1).
+pub const LANE_TOLERANCE: (f64, f64) = (0.012, 0.06);
+
+/// [`assign_around`] with a second pilot `lane` set down in the seed's lane (on its axis,
+/// facing the same way, behind it): its slot must lie ahead of it on its own axis and behind
+/// the seed's, with one
+/// non-pilot slot linking it to the seed's slot by anchor pairs (that robot couples to the
+/// waiting pilot, then the two drive straight up to the seed; THESIS 5.4.1: pilots move
+/// straight, back and forth).
+pub fn assign_around_lane(
+    spec: &ShapeSpec,
+    robots: &[RobotState],
+    seed: RobotId,
+    lane: Option<RobotId>,
+    g: &Geometry,
+) -> Result<Plan, PlanError> {
     check_robots(robots)?;
     let si = robots
         .iter()
@@ -368,12 +415,21 @@ pub fn assign_around(
     let shape = spec.build(robots.len(), g)?;
     let kinds: Vec<_> = shape.slots.iter().map(|s| s.kind).collect();
     let sp = robots[si].pose;
-    let others: Vec<RobotState> = robots
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| *i != si)
-        .map(|(_, r)| *r)
-        .collect();
+    let li = match lane {
+        Some(id) => Some(
+            robots
+                .iter()
+                .position(|r| r.id == id)
+                .ok_or(PlanError::UnknownSeed(id))?,
+        ),
+        None => None,
+    };
+    let pairs = shape.pairs(g);
+    let anchored = |a: usize, b: usize| {
+        pairs.iter().any(|p| {
+            p.kind == PairType::AnchorOpening && ((p.a, p.b) == (a, b) || (p.a, p.b) == (b, a))
+        })
+    };
     let mut best: Option<(f64, Vec<Pose2>, Vec<usize>, f64)> = None;
     for (slot, spose) in shape.slots.iter().enumerate() {
         if !kinds[slot].accepts(robots[si].kind) {
@@ -382,23 +438,70 @@ pub fn assign_around(
         // Shape frame F with F ∘ slot = seed pose.
         let frame = sp.compose(&spose.pose.inverse());
         let goal: Vec<Pose2> = shape.slots.iter().map(|x| frame.compose(&x.pose)).collect();
-        let rest: Vec<usize> = (0..goal.len()).filter(|&k| k != slot).collect();
-        let rest_goal: Vec<Pose2> = rest.iter().map(|&k| goal[k]).collect();
-        let rest_kinds: Vec<_> = rest.iter().map(|&k| kinds[k]).collect();
-        let Ok((sub, total)) = hungarian(&rest_goal, &rest_kinds, &others) else {
-            continue;
+        // The lane pilot's slots: ahead of it on its axis, linked to the seed's slot through
+        // one slot by anchor pairs.
+        let lane_slots: Vec<Option<usize>> = match li {
+            None => vec![None],
+            Some(l) => {
+                let lp = robots[l].pose;
+                (0..goal.len())
+                    .filter(|&k| k != slot && kinds[k].accepts(robots[l].kind))
+                    .filter(|&k| {
+                        // Ahead of it, behind the seed's place: the train drives up to the
+                        // seed, not past it.
+                        let d = lp.inverse_transform(goal[k].xy());
+                        let seed_d = lp.inverse_transform(goal[slot].xy());
+                        d[0] > -0.005
+                            && d[0] < seed_d[0]
+                            && d[1].abs() <= LANE_TOLERANCE.0
+                            && wrap_angle(goal[k].yaw - lp.yaw).abs() <= LANE_TOLERANCE.1
+                    })
+                    .filter(|&k| {
+                        (0..goal.len()).any(|m| {
+                            m != k
+                                && m != slot
+                                && kinds[m].accepts(RobotKind::NonPilot)
+                                && anchored(m, k)
+                                && anchored(m, slot)
+                        })
+                    })
+                    .map(Some)
+                    .collect()
+            }
         };
-        if best.as_ref().is_some_and(|b| b.0 <= total) {
-            continue;
+        for lane_slot in lane_slots {
+            let fixed: Vec<(usize, usize)> = std::iter::once((slot, si))
+                .chain(lane_slot.zip(li))
+                .collect();
+            let rest: Vec<usize> = (0..goal.len())
+                .filter(|&k| fixed.iter().all(|f| f.0 != k))
+                .collect();
+            let free: Vec<usize> = (0..robots.len())
+                .filter(|&r| fixed.iter().all(|f| f.1 != r))
+                .collect();
+            let free_robots: Vec<RobotState> = free.iter().map(|&r| robots[r]).collect();
+            let rest_goal: Vec<Pose2> = rest.iter().map(|&k| goal[k]).collect();
+            let rest_kinds: Vec<_> = rest.iter().map(|&k| kinds[k]).collect();
+            let Ok((sub, total)) = hungarian(&rest_goal, &rest_kinds, &free_robots) else {
+                continue;
+            };
+            if best.as_ref().is_some_and(|b| b.0 <= total) {
+                continue;
+            }
+            let mut assign = vec![si; goal.len()];
+            for &(k, r) in &fixed {
+                assign[k] = r;
+            }
+            for (n, &k) in rest.iter().enumerate() {
+                assign[k] = free[sub[n]];
+            }
+            best = Some((total, goal.clone(), assign, frame.yaw));
         }
-        let mut assign = vec![si; goal.len()];
-        for (n, &k) in rest.iter().enumerate() {
-            let r = sub[n];
-            assign[k] = if r >= si { r + 1 } else { r };
-        }
-        best = Some((total, goal, assign, frame.yaw));
     }
-    let (total, goal, assign, heading) = best.ok_or(PlanError::KindsUnsatisfiable)?;
+    let (total, goal, assign, heading) = best.ok_or(match lane {
+        Some(l) => PlanError::NoLanePlace { seed, pilot: l },
+        None => PlanError::KindsUnsatisfiable,
+    })?;
     Ok(plan_from(
         spec, shape, heading, goal, &assign, total, robots, g,
     ))

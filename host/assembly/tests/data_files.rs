@@ -26,9 +26,13 @@ fn tee_shape_loads() {
 #[test]
 fn demo_scenario_loads() {
     let s = Scenario::from_file(&data("scenarios/demo.toml"), &Geometry::default()).unwrap();
-    assert_eq!(s.steps.len(), 6);
-    assert!(matches!(s.steps[0].behaviour, Behaviour::Form { .. }));
-    match &s.steps[5].behaviour {
+    assert_eq!(s.steps.len(), 7);
+    // Grown around the front pilot (two pilots in a lane).
+    assert!(matches!(
+        s.steps[0].behaviour,
+        Behaviour::Form { grow: Some(_), .. }
+    ));
+    match &s.steps[6].behaviour {
         Behaviour::Disperse { goals, .. } => assert_eq!(goals.len(), 6),
         other => panic!("{other:?}"),
     }

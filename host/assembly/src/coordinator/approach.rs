@@ -44,6 +44,11 @@ const DOCK_CONVERGE: f64 = 0.022;
 /// [`DOCK_CONVERGE`], turns on the spot before it drives on (at 0.12–0.2 the demo's seed 5
 /// still closed the hold and clicked in one hole early).
 const DOCK_TURN_FIRST: f64 = 0.08;
+/// Speed of the robot hitched behind a lane train's leader relative to the leader's
+/// ([`Coordinator::lane_train_roles`]).
+const LANE_TRAIL: f64 = 0.6;
+/// Fastest turn of a non-pilot leading a lane train (rad/s).
+const LANE_TURN: f64 = 0.5;
 /// How far around the robots a route may swing out (m).
 const ROUTE_MARGIN: f64 = 0.3;
 
@@ -351,6 +356,105 @@ impl Coordinator {
             v: dir * d.speed,
             w,
         })
+    }
+
+    /// Growing with a pilot in the seed's lane ([`Coordinator::lane_link`]): when pair `i`
+    /// joins the train holding that pilot to the seed's assembly, every train member's role.
+    /// The train drives straight along the lane (the axis of its robot's final place), each
+    /// member steering its own lateral offset from that axis out with the anchor approach's
+    /// line follower, so the train stays straight and its pilot turns no more than its
+    /// butterfly allows (THESIS 3.5.1; the MPC's pair alignment turned the leading robot
+    /// and the pilot behind it, bent at the anchor, went 20 mm off the lane). Backs off along
+    /// the lane and comes in again when it stalls against the seed's edge.
+    pub(super) fn lane_train_roles(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Option<Vec<(RobotId, Role)>> {
+        let pilot = self.grow_lane?;
+        let home = segments.get(&self.grow?)?;
+        let own = segments.get(&pilot)?;
+        let tp = self.pairs.get(i)?;
+        if own == home
+            || tp.pair.kind != PairType::AnchorOpening
+            || !matches!(
+                tp.status,
+                PairStatus::Decoupled | PairStatus::HeadAligned | PairStatus::HeadInserted
+            )
+        {
+            return None;
+        }
+        let (me, other) = if segments.get(&tp.pair.a) == Some(own) {
+            (tp.pair.a, tp.pair.b)
+        } else {
+            (tp.pair.b, tp.pair.a)
+        };
+        if segments.get(&me) != Some(own) || segments.get(&other) != Some(home) {
+            return None;
+        }
+        let DockFrame {
+            fin,
+            here,
+            normal: (nx, _),
+            ..
+        } = self.dock_frame(i, me)?;
+        let d = self.cfg.dock;
+        let s = nx.signum();
+        let out = -s * here[0];
+        let mut phase = self.dock_dir.borrow_mut();
+        let (mut dir, mut best, mut since) = match phase.get(&i) {
+            Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
+            _ => (s, out, self.now),
+        };
+        if out < best - IN_PROGRESS {
+            (best, since) = (out, self.now);
+        }
+        if dir == s && self.now - since > IN_STALL_S && tp.status != PairStatus::HeadInserted {
+            dir = -s;
+        } else if dir != s && out >= d.standoff {
+            (dir, best, since) = (s, out, self.now);
+        }
+        phase.insert(i, Manoeuvre::In { dir, best, since });
+        // A tractor and its trailer: the robot in front in the direction of travel leads,
+        // following the lane with the line follower; the one hitched behind it at the
+        // anchor (a pivot) drives straight a little slower, so the leader pulls it (THESIS
+        // 5.4.1 drives a pilot by its linear velocity only). Measured in the simulator with
+        // the pair 0.035 rad bent: both at 0.05 m/s the bend grew to 0.9 rad in 6 s (the
+        // trailer pushes the leader round the pivot); each steering itself, or both given
+        // the one turn rate, the train jackknifed; with the trailer slower it stays within
+        // a few hundredths. A pilot leading turns no tighter than its butterfly (3.5.1).
+        let lead = if dir == s { me } else { pilot };
+        let follow = if lead == me { pilot } else { me };
+        let kl = self.robots.get(&lead)?.pose;
+        let w_max = if lead == pilot {
+            0.9 * d.speed / self.cfg.pilot_turn_radius
+        } else {
+            LANE_TURN
+        };
+        let lat = fin.inverse_transform(kl.xy())[1];
+        let yaw_rel = wrap_angle(kl.yaw - fin.yaw);
+        let target = (-dir * d.k_lat * lat).clamp(-d.max_heading, d.max_heading);
+        let w_lead = (-d.k_theta * wrap_angle(yaw_rel - target)).clamp(-w_max, w_max);
+        let v_lead = dir * d.speed;
+        let roles = vec![
+            (
+                lead,
+                Role::Dock {
+                    pair: i,
+                    v: v_lead,
+                    w: w_lead,
+                },
+            ),
+            (
+                follow,
+                Role::Dock {
+                    pair: i,
+                    v: LANE_TRAIL * v_lead,
+                    w: 0.0,
+                },
+            ),
+        ];
+        Some(roles)
     }
 
     /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less

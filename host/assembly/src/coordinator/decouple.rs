@@ -16,6 +16,10 @@ pub(super) struct Wiggler {
     start: f64,
     /// Released: drives straight on (no turning) until its anchor head is clear.
     clearing: bool,
+    /// A pilot whose anchor is in the wiggling robot's opening while that robot's own anchor
+    /// is still held behind it: the wiggling robot turns where it is and the pilot pulls
+    /// its anchor out straight ahead (pilots move straight only, THESIS 5.4.1).
+    pub(super) puller: Option<RobotId>,
 }
 
 /// Speed of a released pair's robot driving clear (m/s): above the wheels' 20 RPM
@@ -60,13 +64,36 @@ impl Coordinator {
             // otherwise wiggle one pair and be wiggled against by the other, and neither
             // reaches the yaw that pops the legs.
             let mut busy = BTreeSet::new();
-            // Released pairs still too close first: their robots are busy clearing.
-            let mut order: Vec<(bool, usize)> = pairs
+            // Released pairs still too close first: their robots are busy clearing. Then
+            // pairs whose anchor robot can pull forward: not with another robot's anchor
+            // still held in its own opening (between two pilots in a lane it would push
+            // the front one; that pair goes first, the pilot pulling).
+            let held = |robot: RobotId, i: usize, anchor_side: bool| {
+                pairs.iter().any(|&k| {
+                    k != i
+                        && !self.released.contains(&k)
+                        && self.pairs.get(k).is_some_and(|p| {
+                            p.pair.kind == PairType::AnchorOpening
+                                && p.status != PairStatus::Decoupled
+                                && if anchor_side {
+                                    p.pair.a == robot
+                                } else {
+                                    p.pair.b == robot
+                                }
+                        })
+                })
+            };
+            let mut order: Vec<(bool, bool, usize)> = pairs
                 .iter()
-                .map(|&i| (!self.released.contains(&i), i))
+                .map(|&i| {
+                    let blocked = self.pairs.get(i).is_some_and(|p| {
+                        self.kind_of(p.pair.a) == RobotKind::NonPilot && held(p.pair.a, i, false)
+                    });
+                    (!self.released.contains(&i), blocked, i)
+                })
                 .collect();
             order.sort_unstable();
-            for (unreleased, i) in order {
+            for (unreleased, _, i) in order {
                 let Some(tp) = self
                     .pairs
                     .get(i)
@@ -80,7 +107,15 @@ impl Coordinator {
                     continue;
                 }
                 busy.extend([a, b]);
-                let (robot, partner, v_sign) = self.wiggling_side(a, b);
+                let (robot, partner, mut v_sign) = self.wiggling_side(a, b);
+                // Backing off from a pilot's anchor into its own held anchor (a non-pilot
+                // between two pilots in a lane: each holds one of its ends), it turns in
+                // place and the pilot pulls.
+                let held_behind = v_sign < 0.0 && held(robot, i, true);
+                let puller = held_behind.then_some(partner);
+                if held_behind {
+                    v_sign = 0.0;
+                }
                 out.push(Wiggler {
                     robot,
                     partner,
@@ -88,6 +123,7 @@ impl Coordinator {
                     wiggle: *wiggle,
                     start: *start,
                     clearing: !unreleased,
+                    puller,
                 });
             }
         }
@@ -101,6 +137,7 @@ impl Coordinator {
                     wiggle: Wiggle::default(),
                     start: t0,
                     clearing: false,
+                    puller: None,
                 });
             }
         }
@@ -149,6 +186,12 @@ impl Coordinator {
                 .or_insert_with(|| WiggleTurn::new(t))
                 .update(t, phi, reach, w.wiggle.period_s);
         }
+    }
+
+    /// Speed of a pilot pulling its anchor out of a wiggling robot's opening
+    /// ([`Wiggler::puller`]).
+    pub(super) fn pull_speed(&self, w: &Wiggler) -> f64 {
+        w.wiggle.v_bias.max(CLEAR_SPEED)
     }
 
     /// (v, ω) of a wiggling robot at time `t`.

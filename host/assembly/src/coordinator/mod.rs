@@ -15,7 +15,7 @@ pub use motion::VELOCITY_RAMP_S;
 use motion::{ramp_pose, ramp_velocity, MotionStart};
 
 use crate::assign::{
-    assign_around, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
+    assign_around_lane, assign_connection_pairs, Plan, PlanError, PlannedPair, RobotState,
 };
 use crate::behaviour::{point_command, rendezvous, Trajectory, Wiggle, WiggleTurn, WIGGLE_REACH};
 use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
@@ -508,6 +508,8 @@ pub struct Coordinator {
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
     /// Growing the shape around this robot ([`Coordinator::form_grown`]).
     grow: Option<RobotId>,
+    /// Growing: the second pilot, in the seed's lane, brought up by a train first.
+    grow_lane: Option<RobotId>,
     /// Growing: where the partner of a side pair stood when its assembly first drove ahead to
     /// straighten, per pair.
     straighten_from: std::cell::RefCell<BTreeMap<usize, [f64; 2]>>,
@@ -542,6 +544,7 @@ impl Coordinator {
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
             unplanned: BTreeMap::new(),
             grow: None,
+            grow_lane: None,
             straighten_from: Default::default(),
             kept_at: BTreeMap::new(),
             now: 0.0,
@@ -661,6 +664,7 @@ impl Coordinator {
         self.observe(t, robots);
         let states = self.states();
         let plan = assign_connection_pairs(&spec, &states, heading, &self.geometry)?;
+        self.grow_lane = None;
         Ok(self.start_form(t, plan, heading, None))
     }
 
@@ -687,10 +691,14 @@ impl Coordinator {
 
     /// Start forming `spec` grown around one robot (`seed`; default: the pilot, else the
     /// robot nearest the fleet's centre), which stays where it is: the shape is placed on it
-    /// ([`assign_around`]) and the other robots join its assembly one at a time, each alone,
+    /// ([`crate::assign::assign_around`]) and the other robots join its assembly one at a time, each alone,
     /// by the staged approaches (stand off, turn, drive in), while the assembly holds still.
     /// Slower than forming in parallel, but it needs no train to manoeuvre, so it works from
-    /// scattered starts. At most one pilot (a lone pilot is not driven, THESIS 3.5.2).
+    /// scattered starts. A lone pilot is not driven (THESIS 3.5.2) and moves straight only
+    /// (5.4.1), so with two pilots they must stand in one lane (the second behind the first,
+    /// facing the same way): the front one is the seed, a non-pilot couples to the other,
+    /// and the two drive straight up to the seed before the rest joins
+    /// ([`assign_around_lane`]). More pilots, or two out of lane, are an error.
     pub fn form_grown(
         &mut self,
         t: f64,
@@ -700,34 +708,67 @@ impl Coordinator {
     ) -> Result<&Plan, PlanError> {
         self.observe(t, robots);
         let states = self.states();
-        let pilots: Vec<RobotId> = states
+        let (seed, lane) = self.grow_seed(&states, seed)?;
+        let plan = assign_around_lane(&spec, &states, seed, lane, &self.geometry)?;
+        let heading = Some(plan.heading);
+        self.grow_lane = lane;
+        Ok(self.start_form(t, plan, heading, Some(seed)))
+    }
+
+    /// The seed of a grown shape and the pilot in its lane, if any ([`Coordinator::form_grown`]).
+    fn grow_seed(
+        &self,
+        states: &[RobotState],
+        seed: Option<RobotId>,
+    ) -> Result<(RobotId, Option<RobotId>), PlanError> {
+        let pilots: Vec<&RobotState> = states
             .iter()
             .filter(|r| r.kind == RobotKind::Pilot)
-            .map(|r| r.id)
             .collect();
-        if pilots.len() > 1 {
-            return Err(PlanError::GrowPilots {
-                pilots: pilots.len(),
-                radius: self.cfg.pilot_turn_radius,
-            });
-        }
-        let seed = match (seed, pilots.first()) {
-            (Some(s), Some(&p)) if s != p => {
-                return Err(PlanError::GrowPilots {
-                    pilots: 2,
-                    radius: self.cfg.pilot_turn_radius,
-                })
-            }
-            (Some(s), _) => s,
-            (None, Some(&p)) => p,
-            (None, None) => Self::central(&states).ok_or(PlanError::NotEnoughRobots {
-                needed: 1,
-                available: 0,
-            })?,
+        let too_many = PlanError::GrowPilots {
+            pilots: pilots.len().max(2),
+            radius: self.cfg.pilot_turn_radius,
         };
-        let plan = assign_around(&spec, &states, seed, &self.geometry)?;
-        let heading = Some(plan.heading);
-        Ok(self.start_form(t, plan, heading, Some(seed)))
+        match pilots[..] {
+            [] => {
+                let s = match seed {
+                    Some(s) => s,
+                    None => Self::central(states).ok_or(PlanError::NotEnoughRobots {
+                        needed: 1,
+                        available: 0,
+                    })?,
+                };
+                Ok((s, None))
+            }
+            [p] => match seed {
+                Some(s) if s != p.id => Err(too_many),
+                _ => Ok((p.id, None)),
+            },
+            [a, b] => {
+                // The front one (further along the pair's mean heading) is the seed.
+                let h = wrap_angle(b.pose.yaw - a.pose.yaw) / 2.0 + a.pose.yaw;
+                let along = |r: &RobotState| r.pose.x * h.cos() + r.pose.y * h.sin();
+                let (front, back) = if along(a) >= along(b) { (a, b) } else { (b, a) };
+                if seed.is_some_and(|s| s != front.id) {
+                    return Err(too_many);
+                }
+                let d = front.pose.inverse_transform(back.pose.xy());
+                let yaw = wrap_angle(back.pose.yaw - front.pose.yaw);
+                let (max_lateral, max_yaw) = crate::assign::LANE_TOLERANCE;
+                if d[1].abs() > max_lateral || yaw.abs() > max_yaw {
+                    return Err(PlanError::PilotsNotInLane {
+                        seed: front.id,
+                        pilot: back.id,
+                        lateral: d[1].abs(),
+                        yaw,
+                        max_lateral,
+                        max_yaw,
+                    });
+                }
+                Ok((front.id, Some(back.id)))
+            }
+            _ => Err(too_many),
+        }
     }
 
     /// The robot nearest the centre of `states`.
@@ -811,19 +852,18 @@ impl Coordinator {
             // Grown around a seed that is still there: around it again, else the most
             // central robot.
             Some(seed) => {
-                let seed = if seed == robot {
-                    Self::central(&states)
+                let seed = if seed == robot || self.grow_lane == Some(robot) {
+                    self.grow_seed(&states, None).map(|(s, l)| {
+                        self.grow_lane = l;
+                        s
+                    })
                 } else {
-                    Some(seed)
+                    Ok(seed)
                 };
-                self.grow = seed;
-                match seed {
-                    Some(s) => assign_around(&spec, &states, s, &self.geometry),
-                    None => Err(PlanError::NotEnoughRobots {
-                        needed: 1,
-                        available: 0,
-                    }),
-                }
+                self.grow = seed.as_ref().ok().copied();
+                seed.and_then(|s| {
+                    assign_around_lane(&spec, &states, s, self.grow_lane, &self.geometry)
+                })
             }
             None => assign_connection_pairs(&spec, &states, Some(plan.heading), &self.geometry),
         };
@@ -1556,14 +1596,36 @@ mod tests {
         ];
         robots[0].kind = RobotKind::Pilot;
         robots[2].kind = RobotKind::Pilot;
+        // Two pilots out of lane: the error gives the numbers.
         let err = c
             .form_grown(0.0, ShapeSpec::Line, &robots, None)
             .unwrap_err();
         assert!(
-            matches!(err, PlanError::GrowPilots { pilots: 2, .. }),
+            matches!(
+                err,
+                PlanError::PilotsNotInLane {
+                    seed: 1,
+                    pilot: 3,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(
+            err.to_string().contains("0.100 m off pilot 1's axis"),
+            "{err}"
+        );
+        // Three pilots: no lane takes them.
+        robots[1].kind = RobotKind::Pilot;
+        let err = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap_err();
+        assert!(
+            matches!(err, PlanError::GrowPilots { pilots: 3, .. }),
             "{err}"
         );
         assert!(err.to_string().contains("0.61 m"), "{err}");
+        robots[1].kind = RobotKind::NonPilot;
         robots[2].kind = RobotKind::NonPilot;
         let plan = c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
         // Built on the pilot, where it stands.
@@ -1578,6 +1640,87 @@ mod tests {
             .filter(|&id| matches!(role_of(&tick, id), Role::Dock { .. } | Role::GoTo { .. }))
             .collect();
         assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
+    }
+
+    #[test]
+    fn a_second_pilot_in_the_lane_is_linked_to_the_seed_first() {
+        // Pilot 2 set down 0.4 m behind pilot 1, facing the same way (a little off by hand);
+        // four non-pilots scattered. THESIS 5.4.1: pilots move straight only.
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.1, 0.05, 0.3),
+            np(
+                2,
+                0.1 - 0.4 * 0.3f64.cos(),
+                0.05 - 0.4 * 0.3f64.sin() + 0.004,
+                0.32,
+            ),
+            np(3, 0.3, -0.25, 1.0),
+            np(4, -0.3, 0.3, 2.0),
+            np(5, 0.35, 0.3, -1.0),
+            np(6, -0.1, -0.3, 0.5),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        robots[1].kind = RobotKind::Pilot;
+        // The seed given as the back pilot is refused (only the front one stays put).
+        assert!(matches!(
+            c.form_grown(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(2)),
+            Err(PlanError::GrowPilots { .. })
+        ));
+        let plan = c
+            .form_grown(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, None)
+            .unwrap()
+            .clone();
+        // Built on pilot 1 where it stands; pilot 2's place ahead of it on its own axis.
+        let at = plan.goal_of(1).unwrap();
+        assert!((at.x - 0.1).abs() < 1e-9 && (at.y - 0.05).abs() < 1e-9);
+        let p2 = robots[1].pose;
+        let d = p2.inverse_transform(plan.goal_of(2).unwrap().xy());
+        assert!(d[0] > 0.2 && d[1].abs() < 0.012, "pilot 2's place {d:?}");
+        // The robot between them: anchor pairs to both pilots.
+        let link = |a: RobotId| {
+            plan.pairs
+                .iter()
+                .filter(|p| p.kind == PairType::AnchorOpening && (p.a == a || p.b == a))
+                .map(|p| if p.a == a { p.b } else { p.a })
+                .collect::<Vec<_>>()
+        };
+        let middle = link(2)[0];
+        assert!(link(1).contains(&middle), "{:?}", plan.pairs);
+        // First a non-pilot couples to pilot 2 where it waits; everyone else waits.
+        let tick = c.tick(0.0, &robots);
+        assert_eq!(tick.active.len(), 1);
+        let p = c.pairs()[tick.active[0]].pair;
+        assert!([p.a, p.b].contains(&2) && [p.a, p.b].contains(&middle));
+        assert!(matches!(role_of(&tick, 2), Role::Wait));
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        // Coupled (pose at its place in front of pilot 2): the two join pilot 1 next.
+        let place = p2.compose(
+            &plan
+                .goal_of(2)
+                .unwrap()
+                .inverse()
+                .compose(&plan.goal_of(middle).unwrap()),
+        );
+        for r in robots.iter_mut().filter(|r| r.id == middle) {
+            r.pose = place;
+        }
+        let mut t = 0.0;
+        while c.pairs()[tick.active[0]].status != PairStatus::Connected && t < 3.0 {
+            t += 0.1;
+            c.tick(t, &robots);
+        }
+        assert_eq!(c.pairs()[tick.active[0]].status, PairStatus::Connected);
+        let tick = c.tick(t + 0.1, &robots);
+        assert_eq!(tick.active.len(), 1);
+        let q = c.pairs()[tick.active[0]].pair;
+        assert!(
+            [q.a, q.b].contains(&1) && [q.a, q.b].contains(&middle),
+            "{q:?}"
+        );
+        // Pilot 2 is driven with its partner now; pilot 1 holds.
+        assert!(!matches!(role_of(&tick, 2), Role::Wait | Role::Hold));
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
     }
 
     /// Pilot 1 and three non-pilots scattered round it, growing a line round the pilot: the

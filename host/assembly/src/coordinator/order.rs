@@ -228,6 +228,9 @@ impl Coordinator {
             return Vec::new();
         };
         let open = |i: usize| !self.released.contains(&i);
+        if let Some(i) = self.lane_link(segments, home) {
+            return vec![i];
+        }
         let joins = |i: usize| {
             let p = &self.pairs[i].pair;
             let (sa, sb) = (segments.get(&p.a), segments.get(&p.b));
@@ -267,6 +270,65 @@ impl Coordinator {
             .map(|(i, _)| vec![i])
             .or_else(|| self.rejoin_grown(segments, home).map(|i| vec![i]))
             .unwrap_or_default()
+    }
+
+    /// Growing with a second pilot in the seed's lane ([`Coordinator::form_grown`]), before
+    /// anyone joins the seed: first the pair by which a lone non-pilot couples to that pilot
+    /// where it waits (the staged approach), then the pair by which the two join the seed's
+    /// assembly (they drive straight along the lane, the pilot behind). None once the lane
+    /// pilot is in the seed's assembly.
+    fn lane_link(&self, segments: &BTreeMap<RobotId, usize>, home: usize) -> Option<usize> {
+        let pilot = self.grow_lane?;
+        let own = *segments.get(&pilot)?;
+        if own == home {
+            return None;
+        }
+        let alone = segments.values().filter(|&&s| s == own).count() == 1;
+        let candidates = (0..self.pairs.len()).filter(|&i| {
+            let tp = &self.pairs[i];
+            if self.released.contains(&i) || tp.status == PairStatus::Connected {
+                return false;
+            }
+            let (Some(&sa), Some(&sb)) = (segments.get(&tp.pair.a), segments.get(&tp.pair.b))
+            else {
+                return false;
+            };
+            let other = match (sa == own, sb == own) {
+                (true, false) => tp.pair.b,
+                (false, true) => tp.pair.a,
+                _ => return false,
+            };
+            tp.pair.kind == PairType::AnchorOpening
+                && if alone {
+                    self.lone_non_pilot(other, segments)
+                } else {
+                    segments.get(&other) == Some(&home)
+                }
+        });
+        let candidates: Vec<usize> = candidates.collect();
+        // A pair in progress first; else the first that keeps the plan completable.
+        candidates
+            .iter()
+            .copied()
+            .find(|&i| self.pairs[i].status != PairStatus::Decoupled)
+            .or_else(|| {
+                candidates
+                    .iter()
+                    .copied()
+                    .filter(|&i| self.startable(segments, i, true))
+                    .min_by(|&i, &j| {
+                        let d = |k: usize| {
+                            let p = &self.pairs[k].pair;
+                            match (self.robots.get(&p.a), self.robots.get(&p.b)) {
+                                (Some(a), Some(b)) => {
+                                    (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y)
+                                }
+                                _ => f64::INFINITY,
+                            }
+                        };
+                        d(i).total_cmp(&d(j))
+                    })
+            })
     }
 
     /// Growing, when no lone robot can join: a pair that joins another assembly to the grown

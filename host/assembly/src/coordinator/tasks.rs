@@ -187,6 +187,17 @@ impl Coordinator {
                         }
                     }
                     let home = self.grow.and_then(|seed| segments.get(&seed).copied());
+                    if let Some(train) = self.lane_train_roles(i, segments) {
+                        // The lane pilot's train drives straight up to the seed's assembly,
+                        // which holds.
+                        for &m in home.and_then(|h| members.get(&h)).into_iter().flatten() {
+                            roles.insert(m, (Role::Hold, None));
+                        }
+                        for (m, role) in train {
+                            roles.insert(m, (role, Some(m)));
+                        }
+                        continue;
+                    }
                     // An assembly joined at its anchor by a lone non-pilot holds still, as a
                     // growing one does: the lone robot makes the staged anchor approach. Moved
                     // by the MPC, a coupled segment bends its joints and drags its members
@@ -318,10 +329,15 @@ impl Coordinator {
                 }
             }
             Mode::Decouple { .. } => {
-                // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds.
+                // The robot with the anchor wiggles (THESIS 4.3.2); its partner holds, or,
+                // a pilot pulling its anchor out, drives straight ahead.
                 for w in self.wigglers() {
                     let (v, om) = self.wiggle_command(&w, t);
                     roles.insert(w.robot, (Role::Velocity { v, w: om }, Some(w.robot)));
+                    if let Some(p) = w.puller {
+                        let v = self.pull_speed(&w);
+                        roles.insert(p, (Role::Velocity { v, w: 0.0 }, Some(p)));
+                    }
                     roles.entry(w.partner).or_insert((Role::Hold, None));
                 }
             }
