@@ -1008,18 +1008,24 @@ pub fn mode_name(m: &Mode) -> &'static str {
     }
 }
 
-/// Issue 7's full demo scenario (host/assembly/data/scenarios/demo.toml, embedded so the
-/// binary runs from any directory): two pilots, form, move, dissolve, disperse. Does not finish
-/// yet (README, Status).
+/// Issue 7's demo scenario (host/assembly/data/scenarios/demo.toml, embedded so the binary
+/// runs from any directory), what `puzzlebot demo` runs on [`demo_fleet`]: a 2-row mesh grown
+/// around the front of two pilots, driven 0.5 m, dissolved, every robot sent to its own goal.
 pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
 
-/// What `puzzlebot demo` runs (host/assembly/data/scenarios/grow_mesh.toml): a 2-row
-/// mesh grown around the pilot of [`grow_demo_fleet`], driven 0.5 m.
+/// The fleet of `puzzlebot demo`: six robots, two pilots set down in one lane, the others
+/// scattered over 0.6 m × 0.6 m ([`scattered_fleet`]). Over seeds 1–24, 19 run the whole
+/// demo in lockstep (README, Status); this is seed 2.
+pub fn demo_fleet() -> puzzlebot_sim::Scenario {
+    scattered_fleet(6, 2, 2)
+}
+
+/// A 2-row mesh grown around the pilot of [`grow_demo_fleet`], driven 0.5 m, dissolved and
+/// dispersed (host/assembly/data/scenarios/grow_mesh.toml): the one-pilot demo.
 pub const GROW_DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/grow_mesh.toml");
 
-/// The fleet of `puzzlebot demo`: six robots, one pilot, scattered over
-/// 0.6 m × 0.6 m. Seed 5 is a start the mesh grows from and drives intact; over seeds 1–12,
-/// 10 grow it and drive it intact (README, Status).
+/// Six robots, one pilot, scattered over 0.6 m × 0.6 m. Seed 5 is a start the mesh grows
+/// from and drives intact; over seeds 1–12, 10 grow it and drive it intact (README, Status).
 pub fn grow_demo_fleet() -> puzzlebot_sim::Scenario {
     scattered_fleet(6, 1, 5)
 }

@@ -39,9 +39,10 @@ enum ModeArg {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// The main job on a simulated fleet: 6 scattered robots (1 pilot) grow a 2-row mesh
-    /// around the pilot and drive it 0.5 m (host/assembly/data/scenarios/grow_mesh.toml), the
-    /// host's controller in lockstep with the simulator (deterministic, faster than real time).
+    /// The main job on a simulated fleet: 6 robots (2 pilots set down in one lane, the rest
+    /// scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals
+    /// (host/assembly/data/scenarios/demo.toml), the host's controller in lockstep with the
+    /// simulator (deterministic, faster than real time).
     Demo {
         /// The link demo instead: 4 robots over loopback UDP track lines and circles.
         #[arg(long, conflicts_with = "realtime")]
@@ -224,7 +225,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             ..
         } => {
             println!(
-                "puzzlebot demo: 6 simulated robots (1 pilot) scattered in 0.6 m x 0.6 m grow a 2-row mesh around the pilot, one robot at a time, and drive it 0.5 m ({})",
+                "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals ({})",
                 if realtime {
                     "over loopback UDP in real time"
                 } else {
@@ -233,22 +234,16 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             );
             let t0 = std::time::Instant::now();
             let scenario = AsmScenario::from_toml_str(
-                std::path::Path::new("grow_mesh.toml"),
-                assemble::GROW_DEMO_SCENARIO,
+                std::path::Path::new("demo.toml"),
+                assemble::DEMO_SCENARIO,
                 &puzzlebot_params::FleetParams::default().non_pilot.geometry,
             )?;
             let report = if realtime {
-                assemble::run_scenario(scenario, assemble::grow_demo_fleet(), &runs, 300.0, None)
-                    .await?
+                assemble::run_scenario(scenario, assemble::demo_fleet(), &runs, 400.0, None).await?
             } else {
                 let runs = runs.clone();
                 tokio::task::spawn_blocking(move || {
-                    assemble::run_scenario_lockstep(
-                        scenario,
-                        assemble::grow_demo_fleet(),
-                        &runs,
-                        300.0,
-                    )
+                    assemble::run_scenario_lockstep(scenario, assemble::demo_fleet(), &runs, 400.0)
                 })
                 .await??
             };

@@ -1142,6 +1142,13 @@ impl Coordinator {
             if task.role != Role::Hold || Some(task.segment) != home || size < 2 {
                 continue;
             }
+            // The lane pilot hangs at an anchor and turns no tighter than its butterfly:
+            // driven back to where it was first held after a joining robot knocked the
+            // assembly round, it lagged the others until its anchor popped (seed 1 of the
+            // demo fleet: 0.5 rad knocked, 0.4 rad bend, popped). It holds where it is.
+            if Some(task.robot) == self.grow_lane {
+                continue;
+            }
             let Some(now) = self.robots.get(&task.robot).map(|k| k.pose) else {
                 continue;
             };
