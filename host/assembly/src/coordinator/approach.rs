@@ -372,26 +372,8 @@ impl Coordinator {
         segments: &BTreeMap<RobotId, usize>,
     ) -> Option<Vec<(RobotId, Role)>> {
         let pilot = self.grow_lane?;
-        let home = segments.get(&self.grow?)?;
-        let own = segments.get(&pilot)?;
+        let (me, _) = self.lane_train_pair(i, segments)?;
         let tp = self.pairs.get(i)?;
-        if own == home
-            || tp.pair.kind != PairType::AnchorOpening
-            || !matches!(
-                tp.status,
-                PairStatus::Decoupled | PairStatus::HeadAligned | PairStatus::HeadInserted
-            )
-        {
-            return None;
-        }
-        let (me, other) = if segments.get(&tp.pair.a) == Some(own) {
-            (tp.pair.a, tp.pair.b)
-        } else {
-            (tp.pair.b, tp.pair.a)
-        };
-        if segments.get(&me) != Some(own) || segments.get(&other) != Some(home) {
-            return None;
-        }
         let DockFrame {
             fin,
             here,
@@ -401,6 +383,21 @@ impl Coordinator {
         let d = self.cfg.dock;
         let s = nx.signum();
         let out = -s * here[0];
+        // Someone stands in the lane ahead: the train waits while it makes way
+        // ([`Coordinator::make_way`]; pushed into, it deflected the train off the lane).
+        if self.approach_blocked(i, segments) {
+            let hold = |m| {
+                (
+                    m,
+                    Role::Dock {
+                        pair: i,
+                        v: 0.0,
+                        w: 0.0,
+                    },
+                )
+            };
+            return Some(vec![hold(me), hold(pilot)]);
+        }
         let mut phase = self.dock_dir.borrow_mut();
         let (mut dir, mut best, mut since) = match phase.get(&i) {
             Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
@@ -455,6 +452,36 @@ impl Coordinator {
             ),
         ];
         Some(roles)
+    }
+
+    /// Pair `i` joins the train holding the lane pilot to the seed's assembly (growing with
+    /// two pilots, [`Coordinator::lane_link`]): (the train's robot in the pair, its partner
+    /// in the seed's assembly).
+    pub(super) fn lane_train_pair(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Option<(RobotId, RobotId)> {
+        let pilot = self.grow_lane?;
+        let home = segments.get(&self.grow?)?;
+        let own = segments.get(&pilot)?;
+        let tp = self.pairs.get(i)?;
+        if own == home
+            || tp.pair.kind != PairType::AnchorOpening
+            || !matches!(
+                tp.status,
+                PairStatus::Decoupled | PairStatus::HeadAligned | PairStatus::HeadInserted
+            )
+        {
+            return None;
+        }
+        let (me, other) = if segments.get(&tp.pair.a) == Some(own) {
+            (tp.pair.a, tp.pair.b)
+        } else {
+            (tp.pair.b, tp.pair.a)
+        };
+        (segments.get(&me) == Some(own) && segments.get(&other) == Some(home))
+            .then_some((me, other))
     }
 
     /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less

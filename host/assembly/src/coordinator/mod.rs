@@ -1725,9 +1725,42 @@ mod tests {
             [q.a, q.b].contains(&1) && [q.a, q.b].contains(&middle),
             "{q:?}"
         );
-        // Pilot 2 is driven with its partner now; pilot 1 holds.
-        assert!(!matches!(role_of(&tick, 2), Role::Wait | Role::Hold));
+        // Pilot 2 is driven with its partner now, straight up the lane, the partner in
+        // front pulling it; pilot 1 holds.
+        match (role_of(&tick, middle), role_of(&tick, 2)) {
+            (Role::Dock { v: v1, .. }, Role::Dock { v: v2, w: w2, .. }) => {
+                assert!(
+                    *v1 > 0.0 && *v2 > 0.0 && v2 < v1 && *w2 == 0.0,
+                    "{v1} {v2} {w2}"
+                );
+            }
+            other => panic!("train roles {other:?}"),
+        }
         assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        // A robot waiting in the lane ahead of the train: the train stops and it steps aside.
+        let ahead = place.compose(&Pose2::new(0.1, 0.01, 0.5));
+        let other = [3, 4, 5, 6]
+            .into_iter()
+            .find(|&id| id != middle)
+            .expect("another robot");
+        for r in robots.iter_mut().filter(|r| r.id == other) {
+            r.pose = ahead;
+        }
+        let tick = c.tick(t + 0.2, &robots);
+        for id in [middle, 2] {
+            assert!(
+                matches!(role_of(&tick, id), Role::Dock { v, w, .. } if *v == 0.0 && *w == 0.0),
+                "robot {id}: {:?}",
+                role_of(&tick, id)
+            );
+        }
+        match role_of(&tick, other) {
+            Role::GoTo { goal, .. } => {
+                let o = ahead.inverse_transform(goal.xy());
+                assert!(o[1].abs() > 0.05, "aside: {o:?}");
+            }
+            r => panic!("robot {other} does not make way: {r:?}"),
+        }
     }
 
     /// Pilot 1 and three non-pilots scattered round it, growing a line round the pilot: the

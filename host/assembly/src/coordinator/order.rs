@@ -15,6 +15,10 @@ pub const STANDOFF_MARGIN: f64 = 0.01;
 /// body and 10 mm; robots beside the axis (a mesh's other row, 50 mm off) do not block it.
 const AXIS_BLOCK_HALF_WIDTH: f64 = 0.035;
 
+/// Half-width of a lane train's corridor that another robot's centre blocks (m): a body
+/// (two half bodies) and 5 mm.
+const LANE_BLOCK_HALF_WIDTH: f64 = 0.055;
+
 impl Coordinator {
     /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
     /// segments so that each segment has one leader, 5.5.9).
@@ -182,34 +186,51 @@ impl Coordinator {
         i: usize,
         segments: &BTreeMap<RobotId, usize>,
     ) -> Vec<(RobotId, Pose2, bool)> {
-        let Some((mover, partner)) = self.lone_approach(i, segments) else {
-            return Vec::new();
+        // A lone robot's staged approach, or a lane train driving up to the seed (its whole
+        // way along the lane is the corridor, and it has no stand-off).
+        let (mover, partner, train) = match self.lone_approach(i, segments) {
+            Some((m, p)) => (m, p, false),
+            None => match self.lane_train_pair(i, segments) {
+                Some((m, p)) => (m, p, true),
+                None => return Vec::new(),
+            },
         };
         let Some(f) = self.dock_frame(i, mover) else {
             return Vec::new();
         };
         // Own connection point at the front: the approach comes from behind the place.
         let s = f.normal.0.signum();
-        let reach = self.cfg.dock.standoff + super::approach::ROUTE_CLEARANCE;
+        let reach = if train {
+            -s * f.here[0]
+        } else {
+            self.cfg.dock.standoff + super::approach::ROUTE_CLEARANCE
+        };
         self.robots
             .iter()
             .filter(|&(&id, _)| {
                 id != mover
                     && !self.lost.contains(&id)
                     && segments.get(&id) != segments.get(&partner)
+                    && segments.get(&id) != segments.get(&mover)
             })
             .filter_map(|(&id, k)| {
                 let o = f.fin.inverse_transform(k.pose.xy());
                 let out = -s * o[0];
-                let on_axis = out > 0.0 && out < reach && o[1].abs() < AXIS_BLOCK_HALF_WIDTH;
+                // A train's bodies sweep the lane: anyone whose body overlaps it blocks.
+                let half = if train {
+                    LANE_BLOCK_HALF_WIDTH
+                } else {
+                    AXIS_BLOCK_HALF_WIDTH
+                };
+                let on_axis = out > 0.0 && out < reach && o[1].abs() < half;
                 // Too near the stand-off for the route there (it keeps its clearance).
                 let dx = out - self.cfg.dock.standoff;
-                let at_standoff = dx.hypot(o[1]) < super::approach::ROUTE_CLEARANCE;
+                let at_standoff = !train && dx.hypot(o[1]) < super::approach::ROUTE_CLEARANCE;
                 (on_axis || at_standoff).then(|| {
                     let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
                     let clear = super::approach::ROUTE_CLEARANCE + STANDOFF_MARGIN;
-                    let lat = (AXIS_BLOCK_HALF_WIDTH + MAKE_WAY_MARGIN)
-                        .max((clear * clear - dx * dx).max(0.0).sqrt());
+                    let lat =
+                        (half + MAKE_WAY_MARGIN).max((clear * clear - dx * dx).max(0.0).sqrt());
                     let to = f.fin.transform([o[0], side * lat]);
                     (id, Pose2::new(to[0], to[1], k.pose.yaw), on_axis)
                 })
