@@ -317,7 +317,7 @@ pub enum PlanError {
     /// butterfly allows).
     #[error("{pilots} pilots: a shape grown around one robot takes in the seed pilot and at most one more, set down in its lane, the seed being the front one (lone pilots are not driven, THESIS 3.5.2; any other would have to be turned by a train, and a pilot turns no tighter than {radius:.2} m, THESIS 3.5.1 — no such manoeuvre is implemented)")]
     GrowPilots {
-        /// Pilots in the fleet (or 2: a non-pilot seed with a pilot elsewhere).
+        /// Pilots in the fleet (at least 2: a seed other than the pilot counts as one more).
         pilots: usize,
         /// The pilot's smallest turning radius (m).
         radius: f64,
@@ -396,10 +396,9 @@ pub const LANE_TOLERANCE: (f64, f64) = (0.012, 0.06);
 
 /// [`assign_around`] with a second pilot `lane` set down in the seed's lane (on its axis,
 /// facing the same way, behind it): its slot must lie ahead of it on its own axis and behind
-/// the seed's, with one
-/// non-pilot slot linking it to the seed's slot by anchor pairs (that robot couples to the
-/// waiting pilot, then the two drive straight up to the seed; THESIS 5.4.1: pilots move
-/// straight, back and forth).
+/// the seed's, with one non-pilot slot linking it to the seed's slot by anchor pairs (that
+/// robot couples to the waiting pilot, then the two drive straight up to the seed; THESIS
+/// 5.4.1: pilots move straight, back and forth).
 pub fn assign_around_lane(
     spec: &ShapeSpec,
     robots: &[RobotState],

@@ -359,12 +359,10 @@ impl Coordinator {
     }
 
     /// Growing with a pilot in the seed's lane ([`Coordinator::lane_link`]): when pair `i`
-    /// joins the train holding that pilot to the seed's assembly, every train member's role.
-    /// The train drives straight along the lane (the axis of its robot's final place), each
-    /// member steering its own lateral offset from that axis out with the anchor approach's
-    /// line follower, so the train stays straight and its pilot turns no more than its
-    /// butterfly allows (THESIS 3.5.1; the MPC's pair alignment turned the leading robot
-    /// and the pilot behind it, bent at the anchor, went 20 mm off the lane). Backs off along
+    /// joins the train holding that pilot to the seed's assembly, both train members' direct
+    /// commands. The train drives straight along the lane (the axis of its robot's final
+    /// place) as tractor and trailer (below; the MPC's pair alignment took the pilot 20 mm
+    /// off the lane), waits while a robot in the lane ahead makes way, and backs off along
     /// the lane and comes in again when it stalls against the seed's edge.
     pub(super) fn lane_train_roles(
         &self,
