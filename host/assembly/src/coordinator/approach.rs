@@ -3,6 +3,7 @@
 //! point law near waypoints.
 
 use super::*;
+use crate::assign::LANE_TOLERANCE;
 
 /// Centre distance a robot driving to the start of an approach keeps from every other robot
 /// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
@@ -394,7 +395,28 @@ impl Coordinator {
                     },
                 )
             };
-            return Some(vec![hold(me), hold(pilot)]);
+            let mut held = vec![hold(me)];
+            if pilot != me {
+                held.push(hold(pilot));
+            }
+            return Some(held);
+        }
+        // The pilot alone (its link popped after the train had joined): it can only drive
+        // straight back in along the lane, so only while it still stands on it.
+        if me == pilot {
+            let k = self.robots.get(&pilot)?.pose;
+            let lat = fin.inverse_transform(k.xy())[1];
+            if lat.abs() > LANE_TOLERANCE.0 || wrap_angle(k.yaw - fin.yaw).abs() > LANE_TOLERANCE.1
+            {
+                return Some(vec![(
+                    pilot,
+                    Role::Dock {
+                        pair: i,
+                        v: 0.0,
+                        w: 0.0,
+                    },
+                )]);
+            }
         }
         let mut phase = self.dock_dir.borrow_mut();
         let (mut dir, mut best, mut since) = match phase.get(&i) {
@@ -431,24 +453,26 @@ impl Coordinator {
         let target = (-dir * d.k_lat * lat).clamp(-d.max_heading, d.max_heading);
         let w_lead = (-d.k_theta * wrap_angle(yaw_rel - target)).clamp(-w_max, w_max);
         let v_lead = dir * d.speed;
-        let roles = vec![
-            (
-                lead,
-                Role::Dock {
-                    pair: i,
-                    v: v_lead,
-                    w: w_lead,
-                },
-            ),
-            (
+        let mut roles = vec![(
+            lead,
+            Role::Dock {
+                pair: i,
+                v: v_lead,
+                w: w_lead,
+            },
+        )];
+        // The pilot alone (its link to the non-pilot popped later on): it drives straight
+        // back along the lane by itself.
+        if follow != lead {
+            roles.push((
                 follow,
                 Role::Dock {
                     pair: i,
                     v: LANE_TRAIL * v_lead,
                     w: 0.0,
                 },
-            ),
-        ];
+            ));
+        }
         Some(roles)
     }
 
