@@ -765,8 +765,18 @@ impl World {
         // Each row moves by its neighbour's shift plus LIFT_APART towards its own side
         // (the hole robot sits on the knob robot's left), breadth-first from the first row.
         let groups = self.mech.linked_groups(self.bodies.len());
+        // The largest group stays where it is (a person lifts the smaller part away: a robot
+        // clicked in beside an assembly comes off it, not the assembly off the robot).
+        // Between groups of one size, the first knob robot's (the rows of a mesh: as before).
+        let first = groups[lifted[0].0];
+        let size = |g: usize| groups.iter().filter(|&&x| x == g).count();
+        let fixed = lifted
+            .iter()
+            .flat_map(|&(a, b)| [groups[a], groups[b]])
+            .max_by_key(|&g| (size(g), g == first))
+            .unwrap_or(first);
         let mut shift: BTreeMap<usize, V2> = BTreeMap::new();
-        shift.insert(groups[lifted[0].0], [0.0, 0.0]);
+        shift.insert(fixed, [0.0, 0.0]);
         let mut grew = true;
         while grew {
             grew = false;

@@ -1014,7 +1014,7 @@ pub fn mode_name(m: &Mode) -> &'static str {
 pub const DEMO_SCENARIO: &str = include_str!("../assembly/data/scenarios/demo.toml");
 
 /// The fleet of `puzzlebot demo`: six robots, two pilots set down in one lane, the others
-/// scattered over 0.6 m × 0.6 m ([`scattered_fleet`]). Over seeds 1–24, 20 run the whole
+/// scattered over 0.6 m × 0.6 m ([`scattered_fleet`]). Over seeds 1–24, 21 run the whole
 /// demo in lockstep (README, Status); this is seed 2.
 pub fn demo_fleet() -> puzzlebot_sim::Scenario {
     scattered_fleet(6, 2, 2)

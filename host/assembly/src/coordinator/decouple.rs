@@ -26,6 +26,13 @@ pub(super) struct Wiggler {
 /// dead-band.
 const CLEAR_SPEED: f64 = 0.02;
 
+/// How far two knob-coupled robots may stand from their planned relative place (m) for the
+/// knob to count as planned: under half the 25 mm between a side's holes.
+const KNOB_PLACE_TOLERANCE: f64 = 0.008;
+
+/// A person is asked again to lift an unplanned knob pair after this long (s).
+const KNOB_LIFT_REPEAT_S: f64 = 10.0;
+
 /// A released anchor pair drives apart until the head is this far out of the opening (m):
 /// held where it popped, a wiggling neighbour pushed it back in (measured: 3 of 4 demo
 /// meshes re-coupled a released pair while the rest of the train wiggled).
@@ -208,6 +215,69 @@ impl Coordinator {
         (w.v_sign * v, om)
     }
 
+    /// Knobs seated where the plan does not put those two robots side by side (a robot
+    /// joining along a side that an earlier knock left bent clicked a knob into the wrong
+    /// robot and stood rigidly locked there until the step timed out): a knob holds more than
+    /// the robots can pull (THESIS 5.5.3), so a person is asked to lift it
+    /// ([`EventKind::LiftKnobs`]; in simulation the simulator's hand does it), at most every
+    /// [`KNOB_LIFT_REPEAT_S`] per pair. Knobs between planned neighbours at their places in
+    /// the shape (a mesh's extra clicks, re-targeted side pairs) are left in.
+    fn watch_unplanned_knobs(&mut self, t: f64, ids: &[RobotId]) {
+        let Some(plan) = &self.plan else {
+            return;
+        };
+        let g = self.geometry;
+        let tol = self.cfg.tolerances;
+        let mut lift = Vec::new();
+        for &a in ids {
+            for &b in ids {
+                let (Some(ka), Some(kb)) = (self.robots.get(&a), self.robots.get(&b)) else {
+                    continue;
+                };
+                let (pa, pb) = (ka.pose, kb.pose);
+                if a == b || (pa.x - pb.x).hypot(pa.y - pb.y) > 2.0 * f64::from(g.length) {
+                    continue;
+                }
+                let seated = [ConnPoint::LeftFront, ConnPoint::LeftBack]
+                    .into_iter()
+                    .flat_map(|k| [(k, ConnPoint::RightFront), (k, ConnPoint::RightBack)])
+                    .any(|(knob, hole)| {
+                        let m = measure(&pa, knob, &pb, hole, 0.0, &g);
+                        is_inserted(PairType::KnobHole, &m, &tol, &g, 1.0)
+                    });
+                if !seated {
+                    continue;
+                }
+                let planned = match (plan.goal_of(a), plan.goal_of(b)) {
+                    (Some(ga), Some(gb)) => {
+                        let want = gb.inverse().compose(&ga);
+                        let have = pb.inverse().compose(&pa);
+                        (want.x - have.x).hypot(want.y - have.y) < KNOB_PLACE_TOLERANCE
+                            && wrap_angle(want.yaw - have.yaw).abs() < 0.1
+                    }
+                    _ => false,
+                };
+                let asked = self
+                    .knob_lifts
+                    .get(&(a, b))
+                    .is_some_and(|&t0| t - t0 < KNOB_LIFT_REPEAT_S);
+                if !planned && !asked {
+                    lift.push((a, b));
+                }
+            }
+        }
+        for (a, b) in lift {
+            self.knob_lifts.insert((a, b), t);
+            self.push(
+                t,
+                EventKind::LiftKnobs {
+                    robots: vec![a, b],
+                    pairs: vec![(a, b)],
+                },
+            );
+        }
+    }
+
     /// Anchor couplings between robots that no tracked pair covers, from the measured poses
     /// (during formation only: the planner drives the plan's pairs). An anchor counts as in
     /// by [`puzzlebot_params::coupling::Coupling::anchor_seated`] and as out once
@@ -255,6 +325,7 @@ impl Coordinator {
                 }
             }
         }
+        self.watch_unplanned_knobs(t, &ids);
         let gone: Vec<(RobotId, RobotId)> = self
             .unplanned
             .keys()

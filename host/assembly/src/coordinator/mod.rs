@@ -506,6 +506,9 @@ pub struct Coordinator {
     /// Anchor couplings outside the plan (anchor robot, opening robot) → when first seen
     /// (s): undone by wiggling before formation goes on.
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
+    /// Knob couplings seen where the plan has none, (knob robot, hole robot) → when a person
+    /// was last asked to lift them ([`Coordinator::watch_unplanned`]).
+    knob_lifts: BTreeMap<(RobotId, RobotId), f64>,
     /// Growing the shape around this robot ([`Coordinator::form_grown`]).
     grow: Option<RobotId>,
     /// Growing: the second pilot, in the seed's lane, brought up by a train first.
@@ -543,6 +546,7 @@ impl Coordinator {
             motion_offsets: BTreeMap::new(),
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
             unplanned: BTreeMap::new(),
+            knob_lifts: BTreeMap::new(),
             grow: None,
             grow_lane: None,
             straighten_from: Default::default(),
@@ -1285,6 +1289,46 @@ mod tests {
 
     fn role_of(tick: &Tick, id: RobotId) -> &Role {
         &tick.tasks.iter().find(|t| t.robot == id).unwrap().role
+    }
+
+    #[test]
+    fn a_knob_clicked_in_where_the_plan_has_none_is_lifted_by_hand() {
+        let mut c = coordinator();
+        let robots = four_apart();
+        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
+            .unwrap();
+        let lifts = |tick: &Tick| -> Vec<Vec<(RobotId, RobotId)>> {
+            tick.events
+                .iter()
+                .filter_map(|e| match &e.kind {
+                    EventKind::LiftKnobs { pairs, .. } => Some(pairs.clone()),
+                    _ => None,
+                })
+                .collect()
+        };
+        // The finished mesh: its rows' knobs sit in each other's holes where the shape has
+        // them side by side (more than the one planned knob pair): none is lifted.
+        let mut robots = at_goals(&c, &kinds);
+        let tick = c.tick(0.1, &robots);
+        assert!(lifts(&tick).is_empty(), "{:?}", tick.events);
+        // The back robot of the second row (slot 2, at (−12.5, 25) mm) one hole (25 mm)
+        // further back, beside the first row's back robot: its holes take that robot's
+        // knobs, at a place the plan does not have.
+        let plan = c.plan().unwrap().clone();
+        let moved = plan.slot_robot[2];
+        for r in robots.iter_mut().filter(|r| r.id == moved) {
+            r.pose = r.pose.compose(&Pose2::new(-0.025, 0.0, 0.0));
+        }
+        let tick = c.tick(0.2, &robots);
+        let asked = lifts(&tick);
+        assert!(
+            asked.len() == 1 && asked[0].iter().all(|&(a, b)| a == moved || b == moved),
+            "{asked:?}"
+        );
+        // Asked once, not again every tick.
+        let tick = c.tick(0.3, &robots);
+        assert!(lifts(&tick).is_empty());
     }
 
     #[test]
