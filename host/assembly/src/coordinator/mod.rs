@@ -1287,17 +1287,24 @@ mod tests {
             .collect()
     }
 
+    /// [`four_apart`] forming a 2×2 mesh heading along +x: the coordinator, the robots and
+    /// their kinds.
+    fn mesh_2x2_of_four_apart() -> (Coordinator, Vec<RobotState>, BTreeMap<RobotId, RobotKind>) {
+        let mut c = coordinator();
+        let robots = four_apart();
+        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
+            .unwrap();
+        (c, robots, kinds)
+    }
+
     fn role_of(tick: &Tick, id: RobotId) -> &Role {
         &tick.tasks.iter().find(|t| t.robot == id).unwrap().role
     }
 
     #[test]
     fn a_knob_clicked_in_where_the_plan_has_none_is_lifted_by_hand() {
-        let mut c = coordinator();
-        let robots = four_apart();
-        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
-        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
-            .unwrap();
+        let (mut c, _, kinds) = mesh_2x2_of_four_apart();
         let lifts = |tick: &Tick| -> Vec<Vec<(RobotId, RobotId)>> {
             tick.events
                 .iter()
@@ -1333,11 +1340,7 @@ mod tests {
 
     #[test]
     fn mesh_2x2_rows_first_then_side_then_complete() {
-        let mut c = coordinator();
-        let robots = four_apart();
-        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
-        c.form(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(0.0))
-            .unwrap();
+        let (mut c, robots, kinds) = mesh_2x2_of_four_apart();
         let tick = c.tick(0.0, &robots);
         // One row first: forming the other row too would leave the side pair between two
         // assemblies, which cannot move sideways; its robots wait.
