@@ -17,6 +17,24 @@ fn robot(id: u16, x: f64, y: f64) -> RobotSpec {
     }
 }
 
+/// Robot `a`'s anchor in robot `b`'s opening.
+fn anchor(a: u16, b: u16) -> CouplingSpec {
+    CouplingSpec {
+        kind: LinkKind::Anchor,
+        a,
+        b,
+    }
+}
+
+/// Robot `a`'s left knob in robot `b`'s right hole.
+fn knob(a: u16, b: u16) -> CouplingSpec {
+    CouplingSpec {
+        kind: LinkKind::Knob,
+        a,
+        b,
+    }
+}
+
 #[test]
 fn a_robot_driving_over_a_gap_falls_and_it_is_reported() {
     let mut s = Scenario::grid(0, 1);
@@ -150,16 +168,6 @@ fn lifting_a_mesh_by_hand_frees_its_knobs_and_keeps_its_rows() {
         robot(3, 0.0285, 0.05),
         robot(4, 0.0855, 0.05),
     ];
-    let anchor = |a, b| CouplingSpec {
-        kind: LinkKind::Anchor,
-        a,
-        b,
-    };
-    let knob = |a, b| CouplingSpec {
-        kind: LinkKind::Knob,
-        a,
-        b,
-    };
     s.couplings = vec![
         anchor(2, 1),
         anchor(4, 3),
@@ -225,4 +233,45 @@ fn shipped_scenario_files_parse_and_build() {
         }
     }
     assert!(n >= 3);
+}
+
+#[test]
+fn a_lone_robot_clicked_in_beside_a_row_is_lifted_off_it_not_the_row_off_it() {
+    // A row of two (2 in front of 1, anchored) and a lone robot 3 on its right, 3's knob in
+    // 2's hole: the person lifts the lone robot away and the row stays where it is (before,
+    // the knob robot's group always stayed: here the lone robot, and the row was moved).
+    let mut s = Scenario::grid(0, 1);
+    s.robots = vec![
+        robot(1, 0.0, 0.0),
+        robot(2, 0.057, 0.0),
+        robot(3, 0.0855, -0.05),
+    ];
+    s.couplings = vec![anchor(2, 1), knob(3, 2)];
+    let mut w = World::new(&s, &key()).expect("world");
+    w.run_for(50_000);
+    let before = w.ground_truth();
+    assert!(before.are_coupled(3, 2), "{:?}", w.links());
+    assert_eq!(w.lift_knobs(&[1, 2, 3]), vec![(3, 2)]);
+    w.run_for(50_000);
+    let t = w.ground_truth();
+    assert!(
+        !t.are_coupled(3, 2) && t.are_coupled(2, 1),
+        "{:?}",
+        w.links()
+    );
+    let y = |t: &puzzlebot_sim::GroundTruth, id| t.robot(id).unwrap().pose.y;
+    for id in [1, 2] {
+        assert!(
+            (y(&t, id) - y(&before, id)).abs() < 1e-3,
+            "robot {id} was moved across: {} -> {}",
+            y(&before, id),
+            y(&t, id)
+        );
+    }
+    assert!(
+        y(&before, 3) - y(&t, 3) > 0.01,
+        "the lone robot was set down further right: {} -> {}",
+        y(&before, 3),
+        y(&t, 3)
+    );
 }

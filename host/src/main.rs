@@ -212,6 +212,26 @@ fn main() -> ExitCode {
     }
 }
 
+/// An assembly scenario on a simulated fleet: the controller in lockstep with the simulator
+/// (on a blocking thread), or in real time over loopback UDP.
+async fn run_assembly(
+    scenario: AsmScenario,
+    sim: Scenario,
+    runs: &std::path::Path,
+    limit: f64,
+    lockstep: bool,
+) -> anyhow::Result<assemble::AssemblyReport> {
+    if lockstep {
+        let runs = runs.to_path_buf();
+        tokio::task::spawn_blocking(move || {
+            assemble::run_scenario_lockstep(scenario, sim, &runs, limit)
+        })
+        .await?
+    } else {
+        assemble::run_scenario(scenario, sim, runs, limit, None).await
+    }
+}
+
 async fn run(cli: Cli) -> anyhow::Result<()> {
     let runs = cli.runs_dir;
     match cli.command.unwrap_or(Cmd::Demo {
@@ -238,15 +258,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 assemble::DEMO_SCENARIO,
                 &puzzlebot_params::FleetParams::default().non_pilot.geometry,
             )?;
-            let report = if realtime {
-                assemble::run_scenario(scenario, assemble::demo_fleet(), &runs, 400.0, None).await?
-            } else {
-                let runs = runs.clone();
-                tokio::task::spawn_blocking(move || {
-                    assemble::run_scenario_lockstep(scenario, assemble::demo_fleet(), &runs, 400.0)
-                })
-                .await??
-            };
+            let report =
+                run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
             print!("{}", assemble::describe(&report));
             assemble::ensure_finished(&report)?;
             println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
@@ -267,15 +280,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 Some(p) => Scenario::from_file(&p)?,
                 None => assemble::scattered_fleet(robots, pilots, seed),
             };
-            let report = if lockstep {
-                let runs = runs.clone();
-                tokio::task::spawn_blocking(move || {
-                    assemble::run_scenario_lockstep(scenario, sim, &runs, limit)
-                })
-                .await??
-            } else {
-                assemble::run_scenario(scenario, sim, &runs, limit, None).await?
-            };
+            let report = run_assembly(scenario, sim, &runs, limit, lockstep).await?;
             print!("{}", assemble::describe(&report));
             assemble::ensure_finished(&report)?;
         }

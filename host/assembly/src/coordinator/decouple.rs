@@ -195,8 +195,8 @@ impl Coordinator {
         }
     }
 
-    /// Speed of a pilot pulling its anchor out of a wiggling robot's opening
-    /// ([`Wiggler::puller`]).
+    /// Speed of a released robot driving clear, and of a pilot pulling its anchor out of a
+    /// wiggling robot's opening ([`Wiggler::puller`]).
     pub(super) fn pull_speed(&self, w: &Wiggler) -> f64 {
         w.wiggle.v_bias.max(CLEAR_SPEED)
     }
@@ -209,7 +209,7 @@ impl Coordinator {
             .copied()
             .unwrap_or_else(|| WiggleTurn::new(t));
         if w.clearing {
-            return (w.v_sign * w.wiggle.v_bias.max(CLEAR_SPEED), 0.0);
+            return (w.v_sign * self.pull_speed(w), 0.0);
         }
         let (v, om) = w.wiggle.command_closed(t - w.start, &turn);
         (w.v_sign * v, om)

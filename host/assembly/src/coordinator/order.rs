@@ -337,18 +337,7 @@ impl Coordinator {
                     .iter()
                     .copied()
                     .filter(|&i| self.startable(segments, i, true))
-                    .min_by(|&i, &j| {
-                        let d = |k: usize| {
-                            let p = &self.pairs[k].pair;
-                            match (self.robots.get(&p.a), self.robots.get(&p.b)) {
-                                (Some(a), Some(b)) => {
-                                    (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y)
-                                }
-                                _ => f64::INFINITY,
-                            }
-                        };
-                        d(i).total_cmp(&d(j))
-                    })
+                    .min_by(|&i, &j| self.pair_span(i).total_cmp(&self.pair_span(j)))
             })
     }
 
@@ -372,15 +361,19 @@ impl Coordinator {
             .min_by(|&i, &j| {
                 // A pair already in progress (the anchor at the mouth) first.
                 let waiting = |k: usize| self.pairs[k].status == PairStatus::Decoupled;
-                let d = |k: usize| {
-                    let p = &self.pairs[k].pair;
-                    match (self.robots.get(&p.a), self.robots.get(&p.b)) {
-                        (Some(a), Some(b)) => (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y),
-                        _ => f64::INFINITY,
-                    }
-                };
-                waiting(i).cmp(&waiting(j)).then(d(i).total_cmp(&d(j)))
+                waiting(i)
+                    .cmp(&waiting(j))
+                    .then(self.pair_span(i).total_cmp(&self.pair_span(j)))
             })
+    }
+
+    /// Distance between the centres of pair `k`'s two robots (m; infinite when one is unseen).
+    fn pair_span(&self, k: usize) -> f64 {
+        let p = &self.pairs[k].pair;
+        match (self.robots.get(&p.a), self.robots.get(&p.b)) {
+            (Some(a), Some(b)) => (a.pose.x - b.pose.x).hypot(a.pose.y - b.pose.y),
+            _ => f64::INFINITY,
+        }
     }
 
     /// Can pair `i` be connected now, given robot → segment `merged`, and every other
