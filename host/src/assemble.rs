@@ -499,6 +499,8 @@ impl Controller for AssemblyController {
                 | EventKind::FormationComplete
                 | EventKind::LiftKnobs { .. }
                 | EventKind::RobotLost { .. }
+                | EventKind::Recoupling { .. }
+                | EventKind::Recoupled { .. }
                 | EventKind::Replanned { .. } => true,
                 _ => false,
             };

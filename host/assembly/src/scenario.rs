@@ -688,6 +688,26 @@ pub struct ScenarioRunner {
     coordinator: Coordinator,
     state: RunState,
     step_start: Option<f64>,
+    /// A move interrupted by a pair that came apart, while that pair is coupled again.
+    recoupling: Option<Recoupling>,
+    /// Re-couplings so far, per step index.
+    recouples: BTreeMap<usize, u32>,
+}
+
+/// Times a move step re-couples a pair that came apart before it fails.
+pub const MAX_RECOUPLES: u32 = 2;
+/// Time a re-coupling may take (s) before the move step fails.
+pub const RECOUPLE_TIMEOUT_S: f64 = 30.0;
+
+/// A move step waiting for a pair that came apart to be coupled again.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Recoupling {
+    /// The pair's robots.
+    pair: (RobotId, RobotId),
+    /// When it came apart (s).
+    since: f64,
+    /// How long the step had run by then (s).
+    elapsed: f64,
 }
 
 impl ScenarioRunner {
@@ -698,6 +718,8 @@ impl ScenarioRunner {
             coordinator,
             state: RunState::Running { index: 0 },
             step_start: None,
+            recoupling: None,
+            recouples: BTreeMap::new(),
         }
     }
 
@@ -754,14 +776,22 @@ impl ScenarioRunner {
     }
 
     fn start(&mut self, t: f64, index: usize, robots: &[RobotState]) -> Result<(), String> {
+        let label = self.scenario.steps[index].label.clone();
+        self.coordinator
+            .record(t, EventKind::StepStarted { index, label });
+        self.begin(t, index, robots, 0.0)
+    }
+
+    /// Set the coordinator going on step `index`, `elapsed` s into it (a trajectory goes on
+    /// from there; other behaviours start from where the robots are).
+    fn begin(
+        &mut self,
+        t: f64,
+        index: usize,
+        robots: &[RobotState],
+        elapsed: f64,
+    ) -> Result<(), String> {
         let step = self.scenario.steps[index].clone();
-        self.coordinator.record(
-            t,
-            EventKind::StepStarted {
-                index,
-                label: step.label.clone(),
-            },
-        );
         let c = &mut self.coordinator;
         match step.behaviour {
             Behaviour::Form {
@@ -799,7 +829,7 @@ impl ScenarioRunner {
                 t,
                 Mode::Track {
                     trajectory,
-                    start: t,
+                    start: t - elapsed,
                 },
             ),
             Behaviour::Rendezvous {
@@ -960,17 +990,54 @@ impl ScenarioRunner {
         if let RunState::Running { index } = self.state {
             let step = self.scenario.steps[index].clone();
             let start = self.step_start.unwrap_or(t);
-            if let Some((a, b)) = Self::came_apart_while_moving(&step, &tick) {
+            if let Some(r) = self.recoupling {
+                let (a, b) = r.pair;
+                if tick.complete {
+                    // Every pair of the plan is coupled again: the move goes on for what
+                    // was left of it.
+                    self.recoupling = None;
+                    self.coordinator.record(t, EventKind::Recoupled { a, b });
+                    self.step_start = Some(t - r.elapsed);
+                    if let Err(reason) = self.begin(t, index, robots, r.elapsed) {
+                        self.fail(t, index, reason);
+                    }
+                } else if t - r.since > RECOUPLE_TIMEOUT_S {
+                    self.fail(
+                        t,
+                        index,
+                        format!(
+                            "pair {a}-{b} came apart while moving in step '{}' and was not \
+                             coupled again within {RECOUPLE_TIMEOUT_S} s",
+                            step.label
+                        ),
+                    );
+                }
+            } else if let Some((a, b)) = Self::came_apart_while_moving(&step, &tick) {
                 // An assembly that lost a coupling is not the assembly the move was planned
-                // (and gated) for: it stops, and the step fails saying why.
-                self.fail(
-                    t,
-                    index,
-                    format!(
-                        "pair {a}-{b} came apart while moving in step '{}'",
-                        step.label
-                    ),
-                );
+                // (and gated) for: it stops and couples the pair again (the plan's
+                // formation), then goes on; after `MAX_RECOUPLES` the step fails saying why.
+                let n = self.recouples.get(&index).copied().unwrap_or(0);
+                if n < MAX_RECOUPLES && self.coordinator.plan().is_some() {
+                    self.recouples.insert(index, n + 1);
+                    self.recoupling = Some(Recoupling {
+                        pair: (a, b),
+                        since: t,
+                        elapsed: t - start,
+                    });
+                    self.coordinator
+                        .record(t, EventKind::Recoupling { a, b, index });
+                    self.coordinator.set_mode(t, Mode::Form);
+                } else {
+                    self.fail(
+                        t,
+                        index,
+                        format!(
+                            "pair {a}-{b} came apart while moving in step '{}' ({} times)",
+                            step.label,
+                            n + 1
+                        ),
+                    );
+                }
                 // This tick's tasks were the move's: they hold instead.
                 for task in &mut tick.tasks {
                     task.role = Role::Hold;
@@ -1219,53 +1286,137 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
         }
     }
 
-    #[test]
-    fn a_move_stops_and_fails_when_a_pair_comes_apart() {
+    /// Two robots coupled in a line (robot 1's anchor in robot 2's opening at x1 − x2 = 5 cm),
+    /// then a 5 s move labelled "drive"; ticked until the move runs.
+    fn line_then_drive() -> (ScenarioRunner, f64) {
         let text = "[[step]]\nform = { shape = \"line\" }\ntimeout_s = 5\n\
                     [[step]]\nlabel = \"drive\"\nmove = { velocity = [0.02, 0.0], duration_s = 5 }\n";
         let mut r = ScenarioRunner::new(
             parse(text).unwrap(),
             Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
         );
-        let at = |x1: f64, x2: f64| {
-            vec![
-                RobotState {
-                    id: 1,
-                    kind: RobotKind::NonPilot,
-                    pose: Pose2::new(x1, 0.0, 0.0),
-                },
-                RobotState {
-                    id: 2,
-                    kind: RobotKind::NonPilot,
-                    pose: Pose2::new(x2, 0.0, 0.0),
-                },
-            ]
-        };
-        // Coupled in a line; the move starts (after the formation settles); then the front
-        // robot is 3 cm ahead of where its anchor could reach.
         let mut t = 0.0;
         while t < 2.0 {
-            r.tick(t, &at(0.05, 0.0));
+            r.tick(t, &two_at(0.05, 0.0));
             t += 0.1;
         }
         assert_eq!(r.state(), &RunState::Running { index: 1 });
-        let tick = r.tick(t, &at(0.08, 0.0));
+        (r, t)
+    }
+
+    fn two_at(x1: f64, x2: f64) -> Vec<RobotState> {
+        [(1, x1), (2, x2)]
+            .map(|(id, x)| RobotState {
+                id,
+                kind: RobotKind::NonPilot,
+                pose: Pose2::new(x, 0.0, 0.0),
+            })
+            .to_vec()
+    }
+
+    fn has(r: &ScenarioRunner, f: impl Fn(&EventKind) -> bool) -> Option<f64> {
+        r.coordinator()
+            .events()
+            .iter()
+            .find(|e| f(&e.kind))
+            .map(|e| e.t)
+    }
+
+    #[test]
+    fn a_move_whose_pair_comes_apart_stops_couples_it_again_and_goes_on_for_what_was_left() {
+        let (mut r, mut t) = line_then_drive();
+        let started = has(&r, |k| matches!(k, EventKind::StepStarted { index: 1, .. })).unwrap();
+        // 1 s into the move the front robot is 3 cm ahead of where its anchor could reach.
+        while t < started + 1.0 {
+            r.tick(t, &two_at(0.05, 0.0));
+            t += 0.1;
+        }
+        let tick = r.tick(t, &two_at(0.08, 0.0));
+        let apart = t;
         assert!(
             tick.tasks.iter().all(|k| k.role == Role::Hold),
-            "{:?}",
+            "the assembly stops: {:?}",
             tick.tasks
         );
+        assert_eq!(r.state(), &RunState::Running { index: 1 });
+        assert_eq!(
+            r.coordinator().mode(),
+            &Mode::Form,
+            "the pair is coupled again"
+        );
+        assert!(has(&r, |k| matches!(
+            k,
+            EventKind::Recoupling {
+                a: 1,
+                b: 2,
+                index: 1
+            }
+        ))
+        .is_some());
+        // Back in its seat: once the formation is complete again the move goes on, for the
+        // 4 s that were left of it.
+        t += 0.1;
+        while has(&r, |k| matches!(k, EventKind::Recoupled { .. })).is_none() && t < apart + 10.0 {
+            r.tick(t, &two_at(0.05, 0.0));
+            t += 0.1;
+        }
+        let again =
+            has(&r, |k| matches!(k, EventKind::Recoupled { a: 1, b: 2 })).expect("coupled again");
+        assert!(matches!(r.coordinator().mode(), Mode::Velocity { .. }));
+        while r.state() == &(RunState::Running { index: 1 }) && t < again + 10.0 {
+            r.tick(t, &two_at(0.05, 0.0));
+            t += 0.1;
+        }
+        let finished = has(&r, |k| matches!(k, EventKind::StepFinished { index: 1 })).unwrap();
+        let left = 5.0 - (apart - started);
+        assert!(
+            (finished - again - left).abs() < 0.25,
+            "the move ran {:.1} s after coupling again, {left:.1} s were left",
+            finished - again
+        );
+        assert_eq!(r.state(), &RunState::Finished);
+    }
+
+    #[test]
+    fn a_move_fails_when_a_pair_that_came_apart_is_not_coupled_again_or_keeps_coming_apart() {
+        // Not coupled again within the time allowed: the step fails and everyone holds.
+        let (mut r, mut t) = line_then_drive();
+        let apart = t;
+        while t < apart + RECOUPLE_TIMEOUT_S + 1.0 && r.state() == &(RunState::Running { index: 1 })
+        {
+            r.tick(t, &two_at(0.08, 0.0));
+            t += 0.1;
+        }
+        match r.state() {
+            RunState::Failed { index: 1, reason } => assert!(
+                reason.contains("came apart")
+                    && reason.contains("drive")
+                    && reason.contains("not coupled again"),
+                "{reason}"
+            ),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(r.coordinator().mode(), &Mode::Hold);
+        // Coming apart again after every re-coupling: the third time the step fails.
+        let (mut r, mut t) = line_then_drive();
+        for _ in 0..=MAX_RECOUPLES {
+            r.tick(t, &two_at(0.08, 0.0));
+            t += 0.1;
+            let since = t;
+            while r.coordinator().mode() == &Mode::Form && t < since + 10.0 {
+                r.tick(t, &two_at(0.05, 0.0));
+                t += 0.1;
+            }
+        }
         match r.state() {
             RunState::Failed { index: 1, reason } => {
                 assert!(
-                    reason.contains("came apart") && reason.contains("drive"),
+                    reason.contains("came apart") && reason.contains("3 times"),
                     "{reason}"
                 )
             }
             other => panic!("{other:?}"),
         }
-        // The assembly stops: every robot holds.
-        assert_eq!(r.coordinator().mode(), &Mode::Hold);
     }
 
     #[test]

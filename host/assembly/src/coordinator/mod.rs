@@ -335,6 +335,23 @@ pub enum EventKind {
         /// Why.
         reason: String,
     },
+    /// A pair came apart while its assembly moved: the move stops and the pair is coupled
+    /// again (the plan's formation) before the move goes on.
+    Recoupling {
+        /// Anchor / knob robot.
+        a: RobotId,
+        /// Opening / hole robot.
+        b: RobotId,
+        /// The move step.
+        index: usize,
+    },
+    /// Every pair is coupled again after [`EventKind::Recoupling`]; the move goes on.
+    Recoupled {
+        /// Anchor / knob robot.
+        a: RobotId,
+        /// Opening / hole robot.
+        b: RobotId,
+    },
     /// A pair was released after decoupling and is no longer tracked.
     PairReleased {
         /// Anchor / knob robot.
