@@ -70,7 +70,9 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 #[ignore = "flaky in real time (measured 2026-12-01: 23 of 25 loopback runs in session 7, 4 of \
             them with both cores loaded, 14 of 15 in session 8, 5 during a CI run, 4 of 4 in \
-            session 9 (2026-12-02); the \
+            session 9 (2026-12-02), 14 of 14 in session 14 (8 loaded) and, once a pair that \
+            comes apart while moving is coupled again, 13 of 14 (5 loaded; the failure \
+            loaded: robot 2 ended the turn 0.26 rad ahead of robot 1); the \
             failures: the join of the two 2-robot segments circled for 40 s, and twice robot \
             2 ended the turn 0.105 / 0.164 rad ahead of robot 1; earlier versions 12 of 13, \
             failing when that join popped a pair or rocked in its seat); the lockstep version \
