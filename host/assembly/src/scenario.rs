@@ -17,7 +17,8 @@
 //! decouple = {}            # every coupled pair; the anchor robots wiggle
 //!
 //! [[step]]
-//! disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 }] }
+//! disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 },
+//!                       { robot = 3, away = 0.1 }] }
 //! ```
 //!
 //! Errors name the file, line, column and field.
@@ -29,6 +30,7 @@ use crate::geom::Pose2;
 use crate::pair::PairStatus;
 use crate::shape::{Shape, ShapeSpec};
 use puzzlebot_params::geometry::Geometry;
+use puzzlebot_params::RobotKind;
 use puzzlebot_protocol::messages::RobotId;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -170,10 +172,12 @@ struct GoalFile {
     y: Option<Finite>,
     #[serde(default)]
     ahead: Option<Finite>,
+    #[serde(default)]
+    away: Option<Finite>,
 }
 
-/// `disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 }, …],
-/// tolerance = 0.02 }`.
+/// `disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.2 },
+/// { robot = 3, away = 0.1 }, …], tolerance = 0.02 }`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct DisperseFile {
@@ -309,18 +313,33 @@ pub enum Goal {
     /// This far (m) along the robot's heading at the step's start: a pilot alone drives
     /// only straight (THESIS 5.4.1), so its goal must lie on its axis.
     Ahead(f64),
+    /// This far (m) further from the centre of the step's robots, along the line from that
+    /// centre through the robot, where the step starts: robots leaving a group this way do not
+    /// cross each other's paths (goals `ahead` of robots that ended facing each other made two
+    /// robots swap places head-on, pushing until the step timed out). A robot that moves
+    /// straight only goes along its axis, forwards or backwards, whichever leads away.
+    Away(f64),
 }
 
 impl Goal {
-    /// The goal point for a robot at `pose` when the step starts.
-    pub fn resolve(&self, pose: &Pose2) -> Pose2 {
+    /// The goal point for a robot at `pose` when the step starts, the step's robots centred
+    /// at `centre`; `straight_only`: the robot cannot turn (a pilot alone).
+    pub fn resolve(&self, pose: &Pose2, centre: [f64; 2], straight_only: bool) -> Pose2 {
+        let (s, c) = pose.yaw.sin_cos();
+        let ahead = |d: f64| Pose2::new(pose.x + d * c, pose.y + d * s, pose.yaw);
         match *self {
             Goal::At { x, y } => Pose2::new(x, y, 0.0),
-            Goal::Ahead(d) => Pose2::new(
-                pose.x + d * pose.yaw.cos(),
-                pose.y + d * pose.yaw.sin(),
-                pose.yaw,
-            ),
+            Goal::Ahead(d) => ahead(d),
+            Goal::Away(d) => {
+                let (dx, dy) = (pose.x - centre[0], pose.y - centre[1]);
+                let r = dx.hypot(dy);
+                if straight_only || r < 1e-3 {
+                    // Along the axis, on the side away from the centre (ahead at the centre).
+                    ahead(if dx * c + dy * s < 0.0 { -d } else { d })
+                } else {
+                    Pose2::new(pose.x + d * dx / r, pose.y + d * dy / r, pose.yaw)
+                }
+            }
         }
     }
 }
@@ -614,14 +633,15 @@ impl Scenario {
                 let d = s.disperse.as_ref().expect("one behaviour given");
                 let mut goals = BTreeMap::new();
                 for (i, gl) in d.goal.iter().enumerate() {
-                    let goal = match (gl.x, gl.y, gl.ahead) {
-                        (Some(x), Some(y), None) => Goal::At { x: x.0, y: y.0 },
-                        (None, None, Some(d)) => Goal::Ahead(d.0),
+                    let goal = match (gl.x, gl.y, gl.ahead, gl.away) {
+                        (Some(x), Some(y), None, None) => Goal::At { x: x.0, y: y.0 },
+                        (None, None, Some(d), None) => Goal::Ahead(d.0),
+                        (None, None, None, Some(d)) => Goal::Away(d.0),
                         _ => {
                             return Err(invalid(
                                 span.clone(),
                                 field(&format!("disperse.goal[{i}]")),
-                                "give either x and y, or ahead".into(),
+                                "give either x and y, or ahead, or away".into(),
                             ))
                         }
                     };
@@ -876,12 +896,30 @@ impl ScenarioRunner {
             Behaviour::Disperse { goals, .. } => {
                 // Lost robots get no goal; one never seen is an error in the scenario.
                 let mut resolved = BTreeMap::new();
-                for (&id, g) in &goals {
+                let pose_of = |id: RobotId| {
                     let seen = robots.iter().find(|r| r.id == id).map(|r| r.pose);
-                    match seen.or_else(|| c.pose(id)) {
+                    seen.or_else(|| c.pose(id))
+                };
+                let known: Vec<Pose2> = goals
+                    .keys()
+                    .filter(|id| !c.lost().contains(id))
+                    .filter_map(|&id| pose_of(id))
+                    .collect();
+                let n = known.len().max(1) as f64;
+                let centre = [
+                    known.iter().map(|p| p.x).sum::<f64>() / n,
+                    known.iter().map(|p| p.y).sum::<f64>() / n,
+                ];
+                for (&id, g) in &goals {
+                    match pose_of(id) {
                         _ if c.lost().contains(&id) => {}
                         Some(p) => {
-                            resolved.insert(id, g.resolve(&p));
+                            let kind = robots
+                                .iter()
+                                .find(|r| r.id == id)
+                                .map_or_else(|| c.kind_of(id), |r| r.kind);
+                            let straight = kind == RobotKind::Pilot;
+                            resolved.insert(id, g.resolve(&p, centre, straight));
                         }
                         None => {
                             return Err(format!(
@@ -1066,7 +1104,6 @@ impl ScenarioRunner {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use puzzlebot_params::RobotKind;
 
     const GOOD: &str = r#"
 name = "demo"
@@ -1137,7 +1174,11 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
                 assert_eq!(goals[&1], Goal::At { x: 0.2, y: 0.4 });
                 assert_eq!(goals[&2], Goal::Ahead(0.3));
                 // Ahead: along the robot's heading where the step starts.
-                let g = goals[&2].resolve(&Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2));
+                let g = goals[&2].resolve(
+                    &Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2),
+                    [0.0, 0.0],
+                    false,
+                );
                 assert!(
                     (g.x - 1.0).abs() < 1e-12 && (g.y - 2.3).abs() < 1e-12,
                     "{g:?}"
@@ -1145,6 +1186,55 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn away_goals_lead_out_from_the_group_and_a_pilot_keeps_to_its_axis() {
+        let text = "[[step]]\ndisperse = { goal = [{ robot = 1, away = 0.1 }, \
+                    { robot = 2, away = 0.1 }, { robot = 3, away = 0.1 }] }\n";
+        let s = parse(text).unwrap();
+        let Behaviour::Disperse { goals, .. } = &s.steps[0].behaviour else {
+            panic!("{:?}", s.steps[0].behaviour);
+        };
+        assert_eq!(goals[&3], Goal::Away(0.1));
+        // Two robots facing each other either side of the centre (goals `ahead` would swap
+        // them head-on): each goes 0.1 m further out, whatever its heading.
+        let (pi, c) = (std::f64::consts::PI, [0.0, 0.0]);
+        let g1 = goals[&1].resolve(&Pose2::new(-0.03, 0.0, 0.0), c, false);
+        let g2 = goals[&2].resolve(&Pose2::new(0.03, 0.0, pi), c, false);
+        assert!((g1.x + 0.13).abs() < 1e-12 && g1.y.abs() < 1e-12, "{g1:?}");
+        assert!((g2.x - 0.13).abs() < 1e-12 && g2.y.abs() < 1e-12, "{g2:?}");
+        // A pilot cannot turn: it backs out along its axis when the centre is ahead of it.
+        let g = goals[&1].resolve(&Pose2::new(0.0, -0.05, pi / 2.0), c, true);
+        assert!(g.x.abs() < 1e-12 && (g.y + 0.15).abs() < 1e-12, "{g:?}");
+        // Resolved when the step starts, around the centre of the step's robots.
+        let mut r = ScenarioRunner::new(
+            s,
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        let at = |id, x: f64, y: f64, kind| RobotState {
+            id,
+            kind,
+            pose: Pose2::new(x, y, 0.0),
+        };
+        let robots = vec![
+            at(1, 1.0, 0.0, RobotKind::Pilot),
+            at(2, 1.2, 0.0, RobotKind::NonPilot),
+            at(3, 1.1, 0.3, RobotKind::NonPilot),
+        ];
+        r.tick(0.0, &robots);
+        let Mode::Disperse { goals } = r.coordinator().mode() else {
+            panic!("{:?}", r.coordinator().mode());
+        };
+        assert!(
+            (goals[&1].x - 0.9).abs() < 1e-12,
+            "the pilot backs out: {goals:?}"
+        );
+        assert!(
+            (goals[&2].x - 1.2).abs() > 0.05 && goals[&2].y < 0.0,
+            "{goals:?}"
+        );
+        assert!((goals[&3].y - 0.4).abs() < 1e-12, "{goals:?}");
     }
 
     fn err(text: &str) -> String {

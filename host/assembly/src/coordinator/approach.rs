@@ -563,6 +563,22 @@ impl Coordinator {
             .copied()
     }
 
+    /// The next waypoint of dispersing robot `me` on its way to `goal` round every other
+    /// robot. Unlike [`Self::route_step`] a goal beside another robot is allowed (robots
+    /// dispersing from an assembly start and end close together), so this only answers None
+    /// when no way is found; the robot then heads for its goal directly.
+    pub(super) fn disperse_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        let start = self.robots.get(&me)?.pose.xy();
+        let obstacles = self.others(me);
+        let field = Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        };
+        route(start, goal, &field, 0.0, ROUTE_MARGIN)?
+            .first()
+            .copied()
+    }
+
     /// For a side pair with a lone non-pilot on one side: that robot (it docks; the other
     /// side holds still). The lone robot whose partner's assembly is larger goes first.
     pub(super) fn docking_robot(

@@ -1217,7 +1217,8 @@ impl Coordinator {
         }
     }
 
-    fn kind_of(&self, id: RobotId) -> RobotKind {
+    /// Robot `id`'s kind as last seen (a robot never seen counts as a non-pilot).
+    pub fn kind_of(&self, id: RobotId) -> RobotKind {
         self.robots.get(&id).map_or(RobotKind::NonPilot, |k| k.kind)
     }
 
@@ -1288,6 +1289,43 @@ mod tests {
 
     fn coordinator() -> Coordinator {
         Coordinator::from_params(&FleetParams::default())
+    }
+
+    #[test]
+    fn dispersing_robots_that_must_pass_each_other_drive_round_not_through() {
+        // Robot 1's goal lies beyond robot 2 and robot 2's beyond robot 1 (the MPC has no
+        // obstacle terms: straight at their goals they pushed head-on until the step timed
+        // out); a robot with a free way heads straight for its goal.
+        let mut c = coordinator();
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.08, 0.0, std::f64::consts::PI),
+            np(3, 0.0, 0.5, 0.0),
+        ];
+        let goals: BTreeMap<RobotId, Pose2> = [
+            (1, Pose2::new(0.2, 0.0, 0.0)),
+            (2, Pose2::new(-0.12, 0.0, 0.0)),
+            (3, Pose2::new(0.2, 0.5, 0.0)),
+        ]
+        .into();
+        c.set_mode(0.0, Mode::Disperse { goals });
+        let tick = c.tick(0.0, &robots);
+        let target = |id| match &role_of(&tick, id) {
+            Role::GoTo { goal, .. } => *goal,
+            other => panic!("robot {id}: {other:?}"),
+        };
+        for id in [1, 2] {
+            let g = target(id);
+            assert!(
+                g.y.abs() > 0.02,
+                "robot {id} heads off the line between them: {g:?}"
+            );
+        }
+        let g3 = target(3);
+        assert!(
+            (g3.x - 0.2).abs() < 1e-12 && (g3.y - 0.5).abs() < 1e-12,
+            "{g3:?}"
+        );
     }
 
     /// Robots standing exactly on their plan's goal poses.
