@@ -552,15 +552,7 @@ impl Coordinator {
     /// The next waypoint of robot `me` on its way to `goal` round every other robot
     /// ([`crate::route`]); None when there is no way (it waits).
     pub(super) fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
-        let start = self.robots.get(&me)?.pose.xy();
-        let obstacles = self.others(me);
-        let field = Field {
-            obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
-        };
-        route(start, goal, &field, APPROACH_GAP, ROUTE_MARGIN)?
-            .first()
-            .copied()
+        self.next_waypoint(me, goal, APPROACH_GAP)
     }
 
     /// The next waypoint of dispersing robot `me` on its way to `goal` round every other
@@ -568,13 +560,19 @@ impl Coordinator {
     /// dispersing from an assembly start and end close together), so this only answers None
     /// when no way is found; the robot then heads for its goal directly.
     pub(super) fn disperse_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        self.next_waypoint(me, goal, 0.0)
+    }
+
+    /// First waypoint of [`route`] for `me` round every other robot, the goal at least
+    /// `goal_gap` from any of them.
+    fn next_waypoint(&self, me: RobotId, goal: [f64; 2], goal_gap: f64) -> Option<[f64; 2]> {
         let start = self.robots.get(&me)?.pose.xy();
         let obstacles = self.others(me);
         let field = Field {
             obstacles: &obstacles,
             clearance: ROUTE_CLEARANCE,
         };
-        route(start, goal, &field, 0.0, ROUTE_MARGIN)?
+        route(start, goal, &field, goal_gap, ROUTE_MARGIN)?
             .first()
             .copied()
     }
