@@ -12,6 +12,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use anyhow::Context;
 use puzzlebot_assembly::{
     shape_info, Behaviour, Coordinator, CoordinatorConfig, Event, EventKind, MaintainPair, Mode,
     PairStatus, PairTolerances, PairType, Pose2, RobotState, Role, RunState,
@@ -774,10 +775,26 @@ pub async fn run_scenario(
     Ok(report)
 }
 
+/// One robot's ground truth at one sample of a lockstep run (`telemetry.jsonl`; a real-time
+/// run's records also carry the link's telemetry, see `control.rs`).
+#[derive(Debug, Serialize)]
+struct TruthRecord {
+    t: f64,
+    robot: RobotId,
+    /// Pose [x, y, θ] (m, m, rad).
+    truth: [f64; 3],
+    /// Forward speed (m/s) and turn rate (rad/s).
+    v: f64,
+    omega: f64,
+    /// Wheel speeds (RPM).
+    wheel_rpm: [f64; 2],
+}
+
 /// [`run_scenario`] with the host's controller stepped in lockstep with the simulator
 /// ([`crate::lockstep`]: no sockets, no wall clock, the simulated motion capture as pose
-/// input): deterministic, faster than real time. The run folder gets the same event files and
-/// the trajectory plot (ground truth); there is no link telemetry.
+/// input): deterministic, faster than real time. The run folder gets the same event files, the
+/// trajectory plot and `telemetry.jsonl` with every robot's ground truth at 10 Hz (there is
+/// no link telemetry).
 pub fn run_scenario_lockstep(
     scenario: AsmScenario,
     sim: puzzlebot_sim::Scenario,
@@ -795,15 +812,27 @@ pub fn run_scenario_lockstep(
     let mut folder = RunFolder::create(runs_dir, &name)?;
     // The simulator's ground-truth paths for the run folder's trajectory plot, at 10 Hz.
     let mut next = 0.0;
+    let mut written = Ok(());
     ls.run(&mut ctl, max_duration, |w, t| {
         if t >= next {
             next = t + 0.1;
             for r in w.ground_truth().robots {
                 let tr = folder.traces.entry(r.id).or_default();
                 tr.actual.push((t, r.pose.x, r.pose.y));
+                if written.is_ok() {
+                    written = folder.telemetry(&TruthRecord {
+                        t,
+                        robot: r.id,
+                        truth: [r.pose.x, r.pose.y, r.pose.yaw],
+                        v: r.v,
+                        omega: r.omega,
+                        wheel_rpm: r.wheel_rpm,
+                    });
+                }
             }
         }
     });
+    written.context("writing telemetry.jsonl")?;
     write_events(&mut folder, &ctl)?;
     folder.finish()?;
     let report = report_of(
@@ -1052,6 +1081,44 @@ pub fn ensure_finished(r: &AssemblyReport) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lockstep_run_records_every_robots_ground_truth_in_its_run_folder() {
+        let runs = std::env::temp_dir().join(format!("pb-lockstep-{}", std::process::id()));
+        let fleet = scattered_fleet(2, 0, 1);
+        let text =
+            "name = \"drive\"\n[[step]]\nmove = { velocity = [0.05, 0.0], duration_s = 2 }\n";
+        let r = run_scenario_lockstep(parse_scenario("drive", text).unwrap(), fleet, &runs, 10.0)
+            .unwrap();
+        let lines: Vec<serde_json::Value> =
+            std::fs::read_to_string(r.folder.join("telemetry.jsonl"))
+                .unwrap()
+                .lines()
+                .map(|l| serde_json::from_str(l).unwrap())
+                .collect();
+        for id in [1, 2] {
+            let mine: Vec<&serde_json::Value> = lines.iter().filter(|v| v["robot"] == id).collect();
+            assert!(
+                mine.len() >= 15,
+                "robot {id}: {} records at 10 Hz over 2 s",
+                mine.len()
+            );
+            // The records follow the robot: it drove forward, and the last one is where the
+            // run ended.
+            let end = mine.last().unwrap()["truth"].as_array().unwrap().clone();
+            let end: Vec<f64> = end.iter().map(|x| x.as_f64().unwrap()).collect();
+            let fin = r.final_poses[&id];
+            assert!(
+                (end[0] - fin[0]).hypot(end[1] - fin[1]) < 0.01,
+                "{end:?} vs {fin:?}"
+            );
+            assert!(
+                mine.iter().any(|v| v["v"].as_f64().unwrap() > 0.03),
+                "robot {id} drove"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&runs);
+    }
 
     #[test]
     fn a_velocity_step_below_the_wheels_dead_band_is_warned_about_by_step_and_line() {
