@@ -856,6 +856,7 @@ impl ScenarioRunner {
                 robots: ids,
                 gain,
                 anti,
+                until_distance,
                 ..
             } => {
                 let ids = ids.unwrap_or_else(|| c.robot_ids());
@@ -865,6 +866,7 @@ impl ScenarioRunner {
                         robots: ids,
                         gain,
                         anti,
+                        until: until_distance,
                     },
                 )
             }

@@ -425,6 +425,11 @@ pub enum Mode {
         gain: f64,
         /// Anti-rendezvous.
         anti: bool,
+        /// Anti-rendezvous: a robot whose nearest neighbour is this far (m) stops (THESIS
+        /// (2.4) grows every distance exponentially: left to run, a robot that had already
+        /// separated drove on, one pilot 3 m, while another was still close to its neighbour).
+        #[serde(default)]
+        until: Option<f64>,
     },
     /// The anchor robots of the given pairs wiggle (THESIS (5.7)) until decoupled.
     Decouple {
@@ -1289,6 +1294,45 @@ mod tests {
 
     fn coordinator() -> Coordinator {
         Coordinator::from_params(&FleetParams::default())
+    }
+
+    #[test]
+    fn spreading_out_a_robot_already_clear_of_the_others_stops_while_close_ones_go_on() {
+        // THESIS (2.4) pushes every robot away from the centre, faster the further it is:
+        // with `until_distance` a robot whose nearest neighbour is that far stops.
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.03, 0.0, 0.0),
+            np(3, 0.5, 0.0, 0.0),
+        ];
+        for until in [Some(0.1), None] {
+            let mut c = coordinator();
+            c.set_mode(
+                0.0,
+                Mode::Rendezvous {
+                    robots: vec![1, 2, 3],
+                    gain: 0.5,
+                    anti: true,
+                    until,
+                },
+            );
+            let tick = c.tick(0.0, &robots);
+            for id in [1, 2] {
+                assert!(
+                    matches!(role_of(&tick, id), Role::Velocity { v, .. } if v.abs() > 1e-3),
+                    "robot {id} moves away: {:?}",
+                    role_of(&tick, id)
+                );
+            }
+            match until {
+                Some(_) => assert_eq!(role_of(&tick, 3), &Role::Hold),
+                None => assert!(
+                    matches!(role_of(&tick, 3), Role::Velocity { v, .. } if *v > 0.1),
+                    "{:?}",
+                    role_of(&tick, 3)
+                ),
+            }
+        }
     }
 
     #[test]

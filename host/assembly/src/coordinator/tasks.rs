@@ -306,7 +306,12 @@ impl Coordinator {
                     lead_segment(&mut roles, seg, leader, Role::Track { reference });
                 }
             }
-            Mode::Rendezvous { robots, gain, anti } => {
+            Mode::Rendezvous {
+                robots,
+                gain,
+                anti,
+                until,
+            } => {
                 let part: Vec<(RobotId, Pose2)> = robots
                     .iter()
                     .filter_map(|id| {
@@ -318,7 +323,17 @@ impl Coordinator {
                     .collect();
                 let pos: Vec<[f64; 2]> = part.iter().map(|(_, p)| p.xy()).collect();
                 let u = rendezvous(&pos, *gain, *anti);
-                for ((id, pose), u) in part.iter().zip(u) {
+                for (i, ((id, pose), u)) in part.iter().zip(u).enumerate() {
+                    let nearest = pos
+                        .iter()
+                        .enumerate()
+                        .filter(|(j, _)| *j != i)
+                        .map(|(_, q)| (q[0] - pose.x).hypot(q[1] - pose.y))
+                        .fold(f64::INFINITY, f64::min);
+                    if *anti && until.is_some_and(|d| nearest >= d) {
+                        roles.insert(*id, (Role::Hold, None));
+                        continue;
+                    }
                     let (v, w) = point_command(pose, u[0], u[1], self.cfg.heading_gain);
                     let (v, w) = if self.kind_of(*id) == RobotKind::Pilot {
                         (v, 0.0)
