@@ -71,12 +71,12 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 #[ignore = "flaky in real time (measured 2026-12-01: 23 of 25 loopback runs in session 7, 4 of \
             them with both cores loaded, 14 of 15 in session 8, 5 during a CI run, 4 of 4 in \
             session 9 (2026-12-02), 14 of 14 in session 14 (8 loaded) and, once a pair that \
-            comes apart while moving is coupled again, 13 of 14 (5 loaded; the failure \
+            comes apart while moving is coupled again, 19 of 20 (7 loaded; the failure \
             loaded: robot 2 ended the turn 0.26 rad ahead of robot 1); the \
             failures: the join of the two 2-robot segments circled for 40 s, and twice robot \
             2 ended the turn 0.105 / 0.164 rad ahead of robot 1; earlier versions 12 of 13, \
             failing when that join popped a pair or rocked in its seat); the lockstep version \
-            passes 47 of 48 seeds at 0 and 20 ms"]
+            passes 48 of 48 seeds at 0 and 20 ms (47 before a popped pair was coupled again)"]
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
