@@ -280,7 +280,8 @@ pub enum Behaviour {
         /// Stop after this long (s).
         duration_s: Option<f64>,
         /// Rendezvous: stop when every robot is this close to its nearest neighbour;
-        /// anti: when every robot is at least this far from all others (m).
+        /// anti: when every robot is at least this far from all others (m), each robot
+        /// holding once it is (see `Mode::Rendezvous::until`).
         until_distance: Option<f64>,
     },
     /// Decouple pairs by wiggling the anchor robot (THESIS (5.7)).
