@@ -343,8 +343,9 @@ impl AssemblyController {
                 weights: lead,
                 heading: 1.0e-3,
             }],
-            // Docking drives directly (see `Role::Dock`).
-            Role::Dock { .. } => Vec::new(),
+            // Docking and hitched train members drive directly (see `Role::Dock`,
+            // `Role::Hitch`).
+            Role::Dock { .. } | Role::Hitch { .. } => Vec::new(),
         }
     }
 
@@ -592,7 +593,7 @@ impl Controller for AssemblyController {
             }
         }
         for task in &tick.tasks {
-            if let Role::Dock { v, w, .. } = task.role {
+            if let Role::Dock { v, w, .. } | Role::Hitch { v, w, .. } = task.role {
                 direct.insert(task.robot, Twist::new(v, w));
             }
         }

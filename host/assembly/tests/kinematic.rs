@@ -62,7 +62,7 @@ fn advance(robots: &mut [RobotState], tick: &Tick) {
             }
             Role::Velocity { v, w } => (*v, if task.straight_only { 0.0 } else { *w }),
             // Staged approaches: direct commands near the place, a point goal further out.
-            Role::Dock { v, w, .. } => (*v, *w),
+            Role::Dock { v, w, .. } | Role::Hitch { v, w, .. } => (*v, *w),
             Role::GoTo { goal, .. } => steer(&me, [0.02, 0.0], goal.xy(), 1.0, task.straight_only),
             _ => (0.0, 0.0),
         };

@@ -107,6 +107,18 @@ pub enum Role {
         /// Angular velocity (rad/s).
         w: f64,
     },
+    /// A member hanging at an anchor while its train follows a reference: it drives `(v, w)`
+    /// directly so that its connection point moves with its neighbour's, as a trailer behind
+    /// its hitch ([`Coordinator::hitch_commands`]; with the MPC's pair alignment and its weak
+    /// heading term the followers overshot their leader's yaw in turns under late ticks).
+    Hitch {
+        /// Index of the pair in [`Coordinator::pairs`] that holds it to its neighbour.
+        pair: usize,
+        /// Linear velocity (m/s).
+        v: f64,
+        /// Angular velocity (rad/s).
+        w: f64,
+    },
 }
 
 /// Staged approach of a side connection (see [`Role::Dock`]).
@@ -2261,7 +2273,7 @@ mod tests {
         assert_eq!(leaders.len(), 1, "one segment, one leader");
         // The velocity becomes a reference: the leader's pose integrated at 0.02 m/s from
         // where it stood, ramped up over `VELOCITY_RAMP_S`; the anchor chain behind it moves
-        // like a train, robot 2 keeping its connected pair with robot 1.
+        // like a train, robot 2 towed at its connected pair with robot 1.
         let Role::Track { reference: r1 } = role_of(&tick, 1) else {
             panic!("{:?}", role_of(&tick, 1));
         };
@@ -2275,14 +2287,7 @@ mod tests {
         let last = r1.len() - 1;
         assert!(r1[last].x > r1[1].x, "it accelerates: {r1:?}");
         assert!(
-            matches!(
-                role_of(&tick, 2),
-                Role::Align {
-                    partner: 1,
-                    phase: PairStatus::Connected,
-                    ..
-                }
-            ),
+            matches!(role_of(&tick, 2), Role::Hitch { pair: 0, .. }),
             "{:?}",
             role_of(&tick, 2)
         );
@@ -2466,5 +2471,94 @@ mod tests {
         poses[0].pose.y += 0.1;
         c.tick(0.6, &poses);
         assert!(!c.approach_blocked(join, &c.segments()));
+    }
+
+    #[test]
+    fn a_moving_train_tows_its_members_as_trailers_and_a_mesh_keeps_its_alignment() {
+        let robots = [
+            np(1, 0.0, 0.0, 0.0),
+            np(2, -0.1, 0.0, 0.0),
+            np(3, -0.2, 0.0, 0.0),
+        ];
+        let (c0, goal) = formed(ShapeSpec::Line, &robots);
+        let pose = |id: RobotId| goal.iter().find(|r| r.id == id).unwrap().pose;
+        // Robot 1 (the leader) is the line's head: along +x the others are towed.
+        assert!(pose(1).x > pose(2).x && pose(2).x > pose(3).x, "{goal:?}");
+        let g = c0.geometry;
+        // World velocity of a body point of a robot driving at (v, ω).
+        let point_velocity = |p: &Pose2, v: f64, w: f64, b: [f64; 2]| {
+            let (s, c) = p.yaw.sin_cos();
+            let (bx, by) = (v - w * b[1], w * b[0]);
+            [c * bx - s * by, s * bx + c * by]
+        };
+        let mut c = c0.clone();
+        c.set_mode(1.0, Mode::Velocity { v: 0.05, w: 0.3 });
+        c.tick(1.0, &goal);
+        let tick = c.tick(2.0, &goal);
+        let Role::Track { reference } = role_of(&tick, 1) else {
+            panic!("{:?}", role_of(&tick, 1));
+        };
+        let step = reference[0].relative(&reference[1]);
+        let mut twist = BTreeMap::from([(1, (step.x / c.cfg.dt, step.yaw / c.cfg.dt))]);
+        assert!(twist[&1].0 > 0.01 && twist[&1].1 > 0.05, "{twist:?}");
+        // Each member moves its connection point exactly as its neighbour towards the head
+        // moves the point it hangs at (the robots stand seated: no gap to close).
+        for (me, next) in [(2, 1), (3, 2)] {
+            let Role::Hitch { pair, v, w } = *role_of(&tick, me) else {
+                panic!("robot {me}: {:?}", role_of(&tick, me));
+            };
+            let p = c.pairs()[pair].pair;
+            let (own, theirs) = if p.a == me {
+                (p.point_a, p.point_b)
+            } else {
+                (p.point_b, p.point_a)
+            };
+            assert_eq!(
+                if p.a == me { p.b } else { p.a },
+                next,
+                "robot {me} hangs at {next}"
+            );
+            let (vn, wn) = twist[&next];
+            let want = point_velocity(&pose(next), vn, wn, theirs.position(&g));
+            let got = point_velocity(&pose(me), v, w, own.position(&g));
+            assert!(
+                (want[0] - got[0]).abs() < 1e-9 && (want[1] - got[1]).abs() < 1e-9,
+                "robot {me}: {got:?} for {want:?}"
+            );
+            twist.insert(me, (v, w));
+        }
+        // The head turning left swings its back (and robot 2's front) to the right first.
+        assert!(twist[&2].1 < 0.0 && twist[&3].1 > 0.0, "{twist:?}");
+        // Driven backwards the members would jackknife as trailers: they keep the MPC's
+        // alignment of their pairs.
+        let mut c = c0.clone();
+        c.set_mode(1.0, Mode::Velocity { v: -0.05, w: 0.3 });
+        let tick = c.tick(2.0, &goal);
+        for me in [2, 3] {
+            assert!(
+                matches!(role_of(&tick, me), Role::Align { .. }),
+                "robot {me}: {:?}",
+                role_of(&tick, me)
+            );
+        }
+        // A mesh's members hanging at anchors stand beside others: no trailers there.
+        let (mut c, goal) = formed(
+            ShapeSpec::Mesh { rows: 2 },
+            &[
+                np(1, 0.0, 0.0, 0.0),
+                np(2, -0.1, 0.0, 0.0),
+                np(3, 0.0, 0.1, 0.0),
+                np(4, -0.1, 0.1, 0.0),
+            ],
+        );
+        c.set_mode(1.0, Mode::Velocity { v: 0.05, w: 0.3 });
+        let tick = c.tick(2.0, &goal);
+        assert!(
+            tick.tasks
+                .iter()
+                .all(|t| !matches!(t.role, Role::Hitch { .. })),
+            "{:?}",
+            tick.tasks
+        );
     }
 }

@@ -200,3 +200,125 @@ impl Coordinator {
         }
     }
 }
+
+/// Gain pulling a hitched train member's connection point onto its neighbour's (1/s).
+const HITCH_GAIN: f64 = 1.0;
+
+/// Largest turn rate commanded to a hitched train member (rad/s).
+const HITCH_MAX_TURN: f64 = 1.5;
+
+/// World velocity of the body point `p` of a robot at `pose` driving at (v, ω) (unicycle
+/// (2.1) plus ω × p).
+fn point_velocity(pose: &Pose2, twist: [f64; 2], p: [f64; 2]) -> [f64; 2] {
+    let (s, c) = pose.yaw.sin_cos();
+    let (bx, by) = (twist[0] - twist[1] * p[1], twist[1] * p[0]);
+    [c * bx - s * by, s * bx + c * by]
+}
+
+/// (v, ω) that moves the body point `p` (`p[0]` ≠ 0) of a robot at `pose` at the world
+/// velocity `u`: a point off the wheel axle of a unicycle is fully actuated, so the point
+/// kinematics of [`point_velocity`] invert exactly.
+fn drive_point(pose: &Pose2, p: [f64; 2], u: [f64; 2]) -> [f64; 2] {
+    let (s, c) = pose.yaw.sin_cos();
+    let (bx, by) = (c * u[0] + s * u[1], -s * u[0] + c * u[1]);
+    let w = by / p[0];
+    [bx + w * p[1], w]
+}
+
+impl Coordinator {
+    /// Moving a segment whose `leader` tracks `reference` (samples [`CoordinatorConfig::dt`]
+    /// apart): the direct (v, ω) of every member hanging at an anchor (a tractor and its
+    /// trailers). Each drives its connection point with the velocity of its neighbour's
+    /// (the leader's from the reference, a knob-locked member's as part of its rigid body,
+    /// a hitched member's from its own command) plus [`HITCH_GAIN`] times the gap between
+    /// the two, and its heading follows by itself as a trailer's does behind its hitch.
+    /// That is stable only while the hitch leads the member's axle in the direction of
+    /// travel: a member pushed backwards, a pilot (straight only) and everything hanging
+    /// behind them get no command here (they keep the MPC's pair alignment).
+    pub(super) fn hitch_commands(
+        &self,
+        leader: RobotId,
+        reference: &[Pose2],
+        rigid: &BTreeSet<RobotId>,
+        via: &BTreeMap<RobotId, (usize, RobotId)>,
+    ) -> BTreeMap<RobotId, [f64; 2]> {
+        let pose = |id: &RobotId| self.robots.get(id).map(|k| k.pose);
+        let mut out = BTreeMap::new();
+        let (Some(r0), Some(r1), Some(lp)) = (reference.first(), reference.get(1), pose(&leader))
+        else {
+            return out;
+        };
+        let step = r0.relative(r1);
+        let dt = self.cfg.dt.max(1e-6);
+        // Every member's (v, ω) as far as it is known.
+        let mut twist: BTreeMap<RobotId, [f64; 2]> = BTreeMap::new();
+        twist.insert(leader, [step.x / dt, step.yaw / dt]);
+        // A member rigidly attached to `from` (driving at `t`) moves as a point of its body.
+        let carried = |from: &Pose2, t: [f64; 2], to: &Pose2| {
+            let at = from.inverse_transform(to.xy());
+            let u = point_velocity(from, t, at);
+            let (s, c) = to.yaw.sin_cos();
+            [c * u[0] + s * u[1], t[1]]
+        };
+        for m in rigid {
+            if let Some(p) = pose(m).filter(|_| *m != leader) {
+                twist.insert(*m, carried(&lp, twist[&leader], &p));
+            }
+        }
+        let mut progress = true;
+        while progress {
+            progress = false;
+            for (&m, &(i, next)) in via {
+                if twist.contains_key(&m) || rigid.contains(&m) {
+                    continue;
+                }
+                let (Some(tn), Some(pn), Some(pm)) =
+                    (twist.get(&next).copied(), pose(&next), pose(&m))
+                else {
+                    continue;
+                };
+                let p = &self.pairs[i].pair;
+                if p.kind == PairType::KnobHole {
+                    twist.insert(m, carried(&pn, tn, &pm));
+                    progress = true;
+                    continue;
+                }
+                if self.kind_of(m) == RobotKind::Pilot {
+                    continue;
+                }
+                let (own, theirs) = if m == p.a {
+                    (
+                        p.point_a.position(&self.geometry),
+                        p.point_b.position(&self.geometry),
+                    )
+                } else {
+                    (
+                        p.point_b.position(&self.geometry),
+                        p.point_a.position(&self.geometry),
+                    )
+                };
+                if own[0].abs() < 1e-3 {
+                    continue;
+                }
+                let ff = point_velocity(&pn, tn, theirs);
+                // Pushed backwards (the hitch trails the axle): a trailer would jackknife.
+                let along = (ff[0] * pm.yaw.cos() + ff[1] * pm.yaw.sin()) * own[0].signum();
+                if along < -1e-3 {
+                    continue;
+                }
+                let [hx, hy] = pn.transform(theirs);
+                let [ox, oy] = pm.transform(own);
+                let u = [
+                    ff[0] + HITCH_GAIN * (hx - ox),
+                    ff[1] + HITCH_GAIN * (hy - oy),
+                ];
+                let [v, w] = drive_point(&pm, own, u);
+                let w = w.clamp(-HITCH_MAX_TURN, HITCH_MAX_TURN);
+                twist.insert(m, [v, w]);
+                out.insert(m, [v, w]);
+                progress = true;
+            }
+        }
+        out
+    }
+}

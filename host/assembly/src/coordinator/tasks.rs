@@ -70,6 +70,24 @@ impl Coordinator {
             } else {
                 (BTreeSet::new(), BTreeMap::new())
             };
+            // A train (a chain of anchors, no knobs) moved by a velocity or trajectory
+            // behaviour: the members behind the leader drive as trailers. Measured in
+            // lockstep, the 4-robot line over seeds 1-40 at 0, 20 and 40 ms: 113 → 118 of
+            // 120 (no follower ends a turn ahead of its leader any more; the two left lost a
+            // pair while forming and turned less after re-coupling). Not in a mesh, whose
+            // members hanging at anchors stand beside others (the two-pilot demo, seeds
+            // 1-24: 22 → 19 finish; dissolving after the drive timed out), and not while
+            // forming, where a bent train straightens behind its head (demo 22 → 21).
+            let train = self
+                .live_pairs(&members[&seg])
+                .iter()
+                .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening);
+            let hitched = match &role {
+                Role::Track { reference } if train && !matches!(self.mode, Mode::Form) => {
+                    self.hitch_commands(leader, reference, &rigid, &via)
+                }
+                _ => BTreeMap::new(),
+            };
             for &m in &members[&seg] {
                 if m == leader {
                     roles.insert(m, (role.clone(), Some(leader)));
@@ -77,7 +95,9 @@ impl Coordinator {
                 }
                 if moving && !rigid.contains(&m) {
                     if let Some(&(i, next)) = via.get(&m) {
-                        let own = if self.pairs[i].pair.kind == PairType::AnchorOpening {
+                        let own = if let Some(&[v, w]) = hitched.get(&m) {
+                            Role::Hitch { pair: i, v, w }
+                        } else if self.pairs[i].pair.kind == PairType::AnchorOpening {
                             self.align_role(i, m)
                         } else {
                             Role::Follow {
