@@ -25,7 +25,7 @@ const IN_LATERAL: f64 = 0.005;
 const IN_YAW: f64 = 0.2;
 /// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
 /// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
-const FLUSH_RUN_IN: f64 = 0.08;
+pub(super) const FLUSH_RUN_IN: f64 = 0.08;
 /// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
 /// knob's 1.5 mm seat gap.
 const FLUSH_OFFSET: f64 = 0.004;
@@ -189,6 +189,42 @@ impl Coordinator {
         })
     }
 
+    /// The stand-off of a staged anchor approach to the place `fin` (m out along its axis,
+    /// `s` the side of the robot's connection point): the nearest point from
+    /// [`DockConfig::standoff`] out that is clear of every other robot by
+    /// [`ROUTE_CLEARANCE`] (beside an assembly the axis may run between robots). When the
+    /// axis runs between robots, the line follower gets up to [`FLUSH_RUN_IN`] more to
+    /// converge before the robot slides in beside them (askew, it would push them): as much
+    /// of it as keeps the stand-off clear (the full run-in put demo seed 8's 4 cm from a
+    /// waiting robot, where the route refuses to go: the robot held until the step timed
+    /// out).
+    pub(super) fn approach_standoff(&self, fin: &Pose2, s: f64, me: RobotId) -> f64 {
+        let d = self.cfg.dock;
+        let others = self.others(me);
+        let field = Field {
+            obstacles: &others,
+            clearance: ROUTE_CLEARANCE,
+        };
+        let clear = |sd: f64| {
+            let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
+            field.nearest(p.xy()) >= ROUTE_CLEARANCE
+        };
+        let Some(sd) = (0..=12)
+            .map(|k| d.standoff + 0.02 * k as f64)
+            .find(|&sd| clear(sd))
+        else {
+            return d.standoff;
+        };
+        if sd <= d.standoff {
+            return sd;
+        }
+        let steps = (FLUSH_RUN_IN / 0.02).round() as usize;
+        (0..=steps)
+            .map(|k| sd + FLUSH_RUN_IN - 0.02 * k as f64)
+            .find(|&e| clear(e))
+            .unwrap_or(sd)
+    }
+
     /// Anchor pair `i` between a waiting pilot and robot `me` (alone): stand off on the
     /// pilot's axis (a point goal), turn on the spot to its heading, then drive straight in
     /// along the axis, steering the lateral offset out (the line follower of
@@ -214,28 +250,7 @@ impl Coordinator {
         // In: the line follower steers out twice the stand-off's tolerance (turning on the
         // spot drifts by about a centimetre).
         let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
-        // The stand-off: on the axis, the nearest point from `standoff` out that is clear of
-        // every other robot (beside an assembly the axis may run between robots).
-        // When the axis runs between robots, the line follower gets `FLUSH_RUN_IN` more to
-        // converge before the robot slides in beside them (askew, it would push them).
-        let others = self.others(me);
-        let field = Field {
-            obstacles: &others,
-            clearance: ROUTE_CLEARANCE,
-        };
-        let standoff = (0..=12)
-            .map(|k| d.standoff + 0.02 * k as f64)
-            .find(|&sd| {
-                let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
-                field.nearest(p.xy()) >= ROUTE_CLEARANCE
-            })
-            .map_or(d.standoff, |sd| {
-                if sd > d.standoff {
-                    sd + FLUSH_RUN_IN
-                } else {
-                    sd
-                }
-            });
+        let standoff = self.approach_standoff(&fin, s, me);
         let pre = fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
         let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
         match phase.get(&i).copied() {

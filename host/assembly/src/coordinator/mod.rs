@@ -1697,6 +1697,80 @@ mod tests {
     }
 
     #[test]
+    fn an_anchor_approach_shortens_its_run_in_to_keep_clear_of_a_waiting_robot() {
+        use approach::{FLUSH_RUN_IN, ROUTE_CLEARANCE};
+        let (mut c, mixed, _, first, side, _) = row_formed_side_next();
+        let kinds: BTreeMap<_, _> = mixed.iter().map(|r| (r.id, r.kind)).collect();
+        let goal = at_goals(&c, &kinds);
+        // The other row's anchor pair: its axis runs beside the first row.
+        let sp = c.pairs()[side].pair;
+        let j = (0..c.pairs().len())
+            .find(|&k| k != side && c.pairs()[k].pair != first)
+            .unwrap();
+        let p = c.pairs()[j].pair;
+        let me = if [sp.a, sp.b].contains(&p.a) {
+            p.b
+        } else {
+            p.a
+        };
+        c.tick(1.5, &goal);
+        let frame = c.dock_frame(j, me).unwrap();
+        let s = frame.normal.0.signum();
+        let row_side = frame
+            .fin
+            .inverse_transform(goal.iter().find(|r| r.id == first.a).unwrap().pose.xy())[1]
+            .signum();
+        // The robot starts 0.4 m out and 0.3 m to the side away from the row.
+        let start = frame
+            .fin
+            .compose(&Pose2::new(-s * 0.4, -row_side * 0.3, 0.0));
+        // Another robot stands 5 cm beside the axis at the usual stand-off (as a row would).
+        let beside = frame
+            .fin
+            .compose(&Pose2::new(-s * c.cfg.dock.standoff, row_side * 0.05, 0.0));
+        let mut robots: Vec<RobotState> = goal
+            .iter()
+            .map(|r| {
+                let mut r = *r;
+                if r.id == me {
+                    r.pose = start;
+                }
+                r
+            })
+            .collect();
+        robots.push(np(8, beside.x, beside.y, 0.0));
+        c.tick(2.0, &robots);
+        // The stand-off moves out past it, plus the line follower's run-in.
+        let full = c.approach_standoff(&frame.fin, s, me);
+        assert!(
+            full >= c.cfg.dock.standoff + FLUSH_RUN_IN - 1e-9,
+            "stand-off {full}"
+        );
+        // A robot waits 4 cm beside that stand-off, on the side away from the row.
+        let waiting = frame
+            .fin
+            .compose(&Pose2::new(-s * full, -row_side * 0.04, 0.0));
+        let mut with = robots.clone();
+        with.push(np(9, waiting.x, waiting.y, 0.0));
+        c.tick(2.1, &with);
+        let short = c.approach_standoff(&frame.fin, s, me);
+        let pre = frame.fin.compose(&Pose2::new(-s * short, 0.0, 0.0));
+        assert!(
+            short < full && short >= full - FLUSH_RUN_IN - 1e-9,
+            "stand-off {short} (without the waiting robot {full})"
+        );
+        let gap = (pre.x - waiting.x).hypot(pre.y - waiting.y);
+        assert!(gap >= ROUTE_CLEARANCE, "{gap} from the waiting robot");
+        // So the robot drives to it (a stand-off beside the waiting robot had no route: it
+        // held until the step timed out).
+        let role = c.anchor_approach_role(j, me);
+        assert!(
+            matches!(role, Some(Role::Dock { .. } | Role::GoTo { .. })),
+            "{role:?}"
+        );
+    }
+
+    #[test]
     fn lost_robot_triggers_replan_without_it() {
         let mut c = coordinator();
         let robots: Vec<RobotState> = (1..=4)
