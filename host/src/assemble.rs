@@ -318,7 +318,9 @@ impl AssemblyController {
                 weights: follow,
                 heading: 1.0e-3,
             }],
-            Role::Velocity { v, w } => vec![CostTerm::FitVelocity {
+            // A hitched train member drives its command directly; its MPC fits the same
+            // twist so the plan its neighbours see is the one it drives.
+            Role::Velocity { v, w } | Role::Hitch { v, w, .. } => vec![CostTerm::FitVelocity {
                 target: Command { v: *v, omega: *w },
                 w_v: 1.0e3,
                 w_omega: 1.0e2,
@@ -343,9 +345,8 @@ impl AssemblyController {
                 weights: lead,
                 heading: 1.0e-3,
             }],
-            // Docking and hitched train members drive directly (see `Role::Dock`,
-            // `Role::Hitch`).
-            Role::Dock { .. } | Role::Hitch { .. } => Vec::new(),
+            // Docking drives directly (see `Role::Dock`).
+            Role::Dock { .. } => Vec::new(),
         }
     }
 

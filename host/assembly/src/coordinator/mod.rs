@@ -1628,13 +1628,27 @@ mod tests {
         );
     }
 
-    #[test]
-    fn an_anchor_approach_beside_a_row_keeps_off_the_robots_where_they_are() {
+    /// [`row_formed_side_next`] with every robot at its goal, and the other row's anchor pair
+    /// `j`: its robot in the side pair is in place, the other one (`me`) comes in along the
+    /// axis, which runs beside the first row.
+    struct OtherRow {
+        c: Coordinator,
+        goal: Vec<RobotState>,
+        first: PlannedPair,
+        j: usize,
+        me: RobotId,
+        /// `me`'s place (its partner in place).
+        frame: DockFrame,
+        /// Side of `me`'s connection point (+1: front).
+        s: f64,
+        /// Side of the axis the first row stands on (±1).
+        row_side: f64,
+    }
+
+    fn other_row_approach() -> OtherRow {
         let (mut c, mixed, _, first, side, _) = row_formed_side_next();
         let kinds: BTreeMap<_, _> = mixed.iter().map(|r| (r.id, r.kind)).collect();
         let goal = at_goals(&c, &kinds);
-        // The other row's anchor pair: its robot in the side pair is in place; the other one
-        // comes in along the axis, which runs beside the first row.
         let sp = c.pairs()[side].pair;
         let j = (0..c.pairs().len())
             .find(|&k| k != side && c.pairs()[k].pair != first)
@@ -1645,15 +1659,39 @@ mod tests {
         } else {
             p.a
         };
-        // Its place, with its partner in place.
         c.tick(1.5, &goal);
         let frame = c.dock_frame(j, me).unwrap();
         let s = frame.normal.0.signum();
-        // The first row stands 3 mm nearer the axis than planned (a bent or skewed row).
         let row_side = frame
             .fin
             .inverse_transform(goal.iter().find(|r| r.id == first.a).unwrap().pose.xy())[1]
             .signum();
+        OtherRow {
+            c,
+            goal,
+            first,
+            j,
+            me,
+            frame,
+            s,
+            row_side,
+        }
+    }
+
+    #[test]
+    fn an_anchor_approach_beside_a_row_keeps_off_the_robots_where_they_are() {
+        let OtherRow {
+            mut c,
+            goal,
+            first,
+            j,
+            me,
+            frame,
+            s,
+            row_side,
+        } = other_row_approach();
+        let p = c.pairs()[j].pair;
+        // The first row stands 3 mm nearer the axis than planned (a bent or skewed row).
         let (sn, cs) = frame.fin.yaw.sin_cos();
         let shift = -row_side * 0.003;
         let robots: Vec<RobotState> = goal
@@ -1699,27 +1737,16 @@ mod tests {
     #[test]
     fn an_anchor_approach_shortens_its_run_in_to_keep_clear_of_a_waiting_robot() {
         use approach::{FLUSH_RUN_IN, ROUTE_CLEARANCE};
-        let (mut c, mixed, _, first, side, _) = row_formed_side_next();
-        let kinds: BTreeMap<_, _> = mixed.iter().map(|r| (r.id, r.kind)).collect();
-        let goal = at_goals(&c, &kinds);
-        // The other row's anchor pair: its axis runs beside the first row.
-        let sp = c.pairs()[side].pair;
-        let j = (0..c.pairs().len())
-            .find(|&k| k != side && c.pairs()[k].pair != first)
-            .unwrap();
-        let p = c.pairs()[j].pair;
-        let me = if [sp.a, sp.b].contains(&p.a) {
-            p.b
-        } else {
-            p.a
-        };
-        c.tick(1.5, &goal);
-        let frame = c.dock_frame(j, me).unwrap();
-        let s = frame.normal.0.signum();
-        let row_side = frame
-            .fin
-            .inverse_transform(goal.iter().find(|r| r.id == first.a).unwrap().pose.xy())[1]
-            .signum();
+        let OtherRow {
+            mut c,
+            goal,
+            j,
+            me,
+            frame,
+            s,
+            row_side,
+            ..
+        } = other_row_approach();
         // The robot starts 0.4 m out and 0.3 m to the side away from the row.
         let start = frame
             .fin

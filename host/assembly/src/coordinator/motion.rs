@@ -226,50 +226,40 @@ fn drive_point(pose: &Pose2, p: [f64; 2], u: [f64; 2]) -> [f64; 2] {
 }
 
 impl Coordinator {
-    /// Moving a segment whose `leader` tracks `reference` (samples [`CoordinatorConfig::dt`]
-    /// apart): the direct (v, ω) of every member hanging at an anchor (a tractor and its
-    /// trailers). Each drives its connection point with the velocity of its neighbour's
-    /// (the leader's from the reference, a knob-locked member's as part of its rigid body,
-    /// a hitched member's from its own command) plus [`HITCH_GAIN`] times the gap between
-    /// the two, and its heading follows by itself as a trailer's does behind its hitch.
-    /// That is stable only while the hitch leads the member's axle in the direction of
-    /// travel: a member pushed backwards, a pilot (straight only) and everything hanging
-    /// behind them get no command here (they keep the MPC's pair alignment).
+    /// Moving a train (a chain of anchors) whose `leader` tracks `reference` (samples
+    /// [`CoordinatorConfig::dt`] apart): the direct (v, ω) of every member behind it, `via`
+    /// naming each member's pair and neighbour towards the leader (a tractor and its
+    /// trailers). Each drives its connection point with the velocity of its neighbour's (the
+    /// leader's from the reference, every other's from its own command) plus
+    /// [`HITCH_GAIN`] times the gap between the two, and its heading follows by itself as a
+    /// trailer's does behind its hitch. That is stable only while the hitch leads the
+    /// member's axle in the direction of travel: a member pushed backwards, a pilot
+    /// (straight only) and everything hanging behind them get no command here (they keep
+    /// the MPC's pair alignment).
     pub(super) fn hitch_commands(
         &self,
         leader: RobotId,
         reference: &[Pose2],
-        rigid: &BTreeSet<RobotId>,
         via: &BTreeMap<RobotId, (usize, RobotId)>,
     ) -> BTreeMap<RobotId, [f64; 2]> {
         let pose = |id: &RobotId| self.robots.get(id).map(|k| k.pose);
         let mut out = BTreeMap::new();
-        let (Some(r0), Some(r1), Some(lp)) = (reference.first(), reference.get(1), pose(&leader))
-        else {
+        let (Some(r0), Some(r1)) = (reference.first(), reference.get(1)) else {
             return out;
         };
         let step = r0.relative(r1);
         let dt = self.cfg.dt.max(1e-6);
         // Every member's (v, ω) as far as it is known.
-        let mut twist: BTreeMap<RobotId, [f64; 2]> = BTreeMap::new();
-        twist.insert(leader, [step.x / dt, step.yaw / dt]);
-        // A member rigidly attached to `from` (driving at `t`) moves as a point of its body.
-        let carried = |from: &Pose2, t: [f64; 2], to: &Pose2| {
-            let at = from.inverse_transform(to.xy());
-            let u = point_velocity(from, t, at);
-            let (s, c) = to.yaw.sin_cos();
-            [c * u[0] + s * u[1], t[1]]
-        };
-        for m in rigid {
-            if let Some(p) = pose(m).filter(|_| *m != leader) {
-                twist.insert(*m, carried(&lp, twist[&leader], &p));
-            }
-        }
+        let mut twist = BTreeMap::from([(leader, [step.x / dt, step.yaw / dt])]);
         let mut progress = true;
         while progress {
             progress = false;
             for (&m, &(i, next)) in via {
-                if twist.contains_key(&m) || rigid.contains(&m) {
+                let p = &self.pairs[i].pair;
+                if twist.contains_key(&m)
+                    || p.kind != PairType::AnchorOpening
+                    || self.kind_of(m) == RobotKind::Pilot
+                {
                     continue;
                 }
                 let (Some(tn), Some(pn), Some(pm)) =
@@ -277,26 +267,15 @@ impl Coordinator {
                 else {
                     continue;
                 };
-                let p = &self.pairs[i].pair;
-                if p.kind == PairType::KnobHole {
-                    twist.insert(m, carried(&pn, tn, &pm));
-                    progress = true;
-                    continue;
-                }
-                if self.kind_of(m) == RobotKind::Pilot {
-                    continue;
-                }
                 let (own, theirs) = if m == p.a {
-                    (
-                        p.point_a.position(&self.geometry),
-                        p.point_b.position(&self.geometry),
-                    )
+                    (p.point_a, p.point_b)
                 } else {
-                    (
-                        p.point_b.position(&self.geometry),
-                        p.point_a.position(&self.geometry),
-                    )
+                    (p.point_b, p.point_a)
                 };
+                let (own, theirs) = (
+                    own.position(&self.geometry),
+                    theirs.position(&self.geometry),
+                );
                 if own[0].abs() < 1e-3 {
                     continue;
                 }

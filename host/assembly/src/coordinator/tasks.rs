@@ -84,7 +84,7 @@ impl Coordinator {
                 .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening);
             let hitched = match &role {
                 Role::Track { reference } if train && !matches!(self.mode, Mode::Form) => {
-                    self.hitch_commands(leader, reference, &rigid, &via)
+                    self.hitch_commands(leader, reference, &via)
                 }
                 _ => BTreeMap::new(),
             };
