@@ -72,9 +72,10 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 // 14 of 15 in session 8, 4 of 4 in session 9, 14 of 14 and 19 of 20 in session 14; the
 // failures: robot 2 ending the turn 0.1-0.26 rad ahead of robot 1, once the join of the two
 // 2-robot segments circling for 40 s). Since the train's members are towed as trailers
-// (`Role::Hitch`), measured 2026-12-02: 20 of 20 runs alone (10 with both cores loaded by
-// busy loops) and 8 of 8 with the rest of this file in parallel, as CI runs it; the
-// lockstep version passes 118 of 120 seeds over 0, 20 and 40 ms.
+// (`Role::Hitch`), measured 2026-12-02: 31 of 31 runs alone (15 with both cores loaded by
+// busy loops) and 17 of 17 with the rest of this file in parallel, as CI runs it (11 and 3
+// of them on the final code, whose towed members' MPC fits their twist); the lockstep
+// version passes 118 of 120 seeds over 0, 20 and 40 ms.
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
