@@ -144,18 +144,20 @@ pub fn align_center(goal: &[Pose2], robots: &[Pose2]) -> Vec<Pose2> {
     if goal.is_empty() || robots.is_empty() {
         return goal.to_vec();
     }
-    let mean = |p: &[Pose2]| {
-        let n = p.len() as f64;
-        (
-            p.iter().map(|q| q.x).sum::<f64>() / n,
-            p.iter().map(|q| q.y).sum::<f64>() / n,
-        )
-    };
-    let (gx, gy) = mean(goal);
-    let (rx, ry) = mean(robots);
+    let [gx, gy] = mean_position(goal);
+    let [rx, ry] = mean_position(robots);
     goal.iter()
         .map(|p| Pose2::new(p.x - gx + rx, p.y - gy + ry, p.yaw))
         .collect()
+}
+
+/// Centroid of the poses' positions (m); the origin for an empty set.
+pub fn mean_position(poses: &[Pose2]) -> [f64; 2] {
+    let n = poses.len().max(1) as f64;
+    [
+        poses.iter().map(|p| p.x).sum::<f64>() / n,
+        poses.iter().map(|p| p.y).sum::<f64>() / n,
+    ]
 }
 
 /// Circular mean of headings (rad); 0 for an empty or balanced set.

@@ -908,11 +908,7 @@ impl ScenarioRunner {
                     .filter(|id| !c.lost().contains(id))
                     .filter_map(|&id| pose_of(id))
                     .collect();
-                let n = known.len().max(1) as f64;
-                let centre = [
-                    known.iter().map(|p| p.x).sum::<f64>() / n,
-                    known.iter().map(|p| p.y).sum::<f64>() / n,
-                ];
+                let centre = crate::assign::mean_position(&known);
                 for (&id, g) in &goals {
                     match pose_of(id) {
                         _ if c.lost().contains(&id) => {}
@@ -954,9 +950,7 @@ impl ScenarioRunner {
                     if pts.is_empty() {
                         return false;
                     }
-                    let n = pts.len() as f64;
-                    let cx = pts.iter().map(|p| p.x).sum::<f64>() / n;
-                    let cy = pts.iter().map(|p| p.y).sum::<f64>() / n;
+                    let [cx, cy] = crate::assign::mean_position(&pts);
                     (cx - goal.x).hypot(cy - goal.y) <= *tolerance
                 }
                 None => c

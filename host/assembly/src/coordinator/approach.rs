@@ -26,6 +26,8 @@ const IN_YAW: f64 = 0.2;
 /// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
 /// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
 pub(super) const FLUSH_RUN_IN: f64 = 0.08;
+/// Step of the search for a clear stand-off along an anchor approach's axis (m).
+const STANDOFF_STEP: f64 = 0.02;
 /// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
 /// knob's 1.5 mm seat gap.
 const FLUSH_OFFSET: f64 = 0.004;
@@ -210,7 +212,7 @@ impl Coordinator {
             field.nearest(p.xy()) >= ROUTE_CLEARANCE
         };
         let Some(sd) = (0..=12)
-            .map(|k| d.standoff + 0.02 * k as f64)
+            .map(|k| d.standoff + STANDOFF_STEP * k as f64)
             .find(|&sd| clear(sd))
         else {
             return d.standoff;
@@ -218,9 +220,9 @@ impl Coordinator {
         if sd <= d.standoff {
             return sd;
         }
-        let steps = (FLUSH_RUN_IN / 0.02).round() as usize;
+        let steps = (FLUSH_RUN_IN / STANDOFF_STEP).round() as usize;
         (0..=steps)
-            .map(|k| sd + FLUSH_RUN_IN - 0.02 * k as f64)
+            .map(|k| sd + FLUSH_RUN_IN - STANDOFF_STEP * k as f64)
             .find(|&e| clear(e))
             .unwrap_or(sd)
     }

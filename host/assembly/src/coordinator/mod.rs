@@ -811,9 +811,8 @@ impl Coordinator {
 
     /// The robot nearest the centre of `states`.
     fn central(states: &[RobotState]) -> Option<RobotId> {
-        let n = states.len() as f64;
-        let cx = states.iter().map(|r| r.pose.x).sum::<f64>() / n;
-        let cy = states.iter().map(|r| r.pose.y).sum::<f64>() / n;
+        let poses: Vec<Pose2> = states.iter().map(|r| r.pose).collect();
+        let [cx, cy] = crate::assign::mean_position(&poses);
         states
             .iter()
             .min_by(|a, b| {
