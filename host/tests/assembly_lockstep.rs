@@ -541,7 +541,7 @@ fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
     // set down in one lane and four scattered, grow a 2-row mesh around the front pilot (a
     // non-pilot couples to the back pilot and the two drive straight up to it first), move it
     // 0.5 m, dissolve it and every robot reaches its own goal. Measured 2026-12-02 over
-    // seeds 1–24 of `scattered_fleet(6, 2, seed)`: 22 pass every step (README, Status).
+    // seeds 1–24 of `scattered_fleet(6, 2, seed)`: 23 pass every step (README, Status).
     let f = puzzlebot_host::assemble::demo_fleet();
     let mut ctl = controller(&f, puzzlebot_host::assemble::DEMO_SCENARIO);
     let start: Vec<[f64; 3]> = f.robots.iter().map(|r| r.pose).collect();
