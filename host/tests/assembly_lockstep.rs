@@ -29,7 +29,8 @@
 //! passes 47 of 48 (48 of 48 since 2026-12-02, when a pair that comes apart while moving is
 //! coupled again: seed 19's had popped during the last join), the mesh 48 of 48, the lost-robot line 24 of 24 at 30 ms; the seeds used
 //! here pass. Of the real-time loopback versions the mesh and the lost robot run in CI, the
-//! line is ignored (issue 7; its note says how often it passes).
+//! line is ignored (its comment says how often it passes and how it fails: the join of two
+//! 2-robot trains circling in real time).
 
 use std::collections::BTreeSet;
 use std::path::Path;
