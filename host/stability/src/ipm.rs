@@ -123,6 +123,36 @@ impl Block {
     }
 }
 
+/// A second-order cone's unknowns (the per-unknown passes read only these).
+#[derive(Clone, Copy)]
+struct SocCone {
+    start: usize,
+    dim: usize,
+    block: usize,
+}
+
+/// Calls `$body` with `$d` bound to `$dim`, a compile-time constant for the dimensions the
+/// gate's programs use (3: contact friction cones, 7: connection strength cones), so that the
+/// per-cone loops unroll; any other dimension takes the general path.
+macro_rules! with_dim {
+    ($dim:expr, |$d:ident| $body:expr) => {
+        match $dim {
+            3 => {
+                let $d: usize = 3;
+                $body
+            }
+            7 => {
+                let $d: usize = 7;
+                $body
+            }
+            other => {
+                let $d: usize = other;
+                $body
+            }
+        }
+    };
+}
+
 /// A level row `w_max − head − t = 0`: its slack t, its head cone (the connection's strength
 /// cone with the level coefficient on its first entry, or a nonnegative head), the modules of
 /// its connection and its slots.
@@ -145,7 +175,7 @@ struct Ipm<'a> {
     /// Ranges of nonnegative unknowns (w_A^max included) and the second-order-cone blocks:
     /// the per-unknown passes run over these (contiguous, vectorisable) instead of all blocks.
     nn_ranges: Vec<std::ops::Range<usize>>,
-    soc_blocks: Vec<usize>,
+    soc_blocks: Vec<SocCone>,
     local_a: Vec<f64>,
     pre: Vec<f64>,
     levels: Vec<Level>,
@@ -442,7 +472,14 @@ impl<'a> Ipm<'a> {
             }
         }
         let nblk = blocks.len();
-        let soc_blocks = (0..nblk).filter(|&b| blocks[b].soc).collect();
+        let soc_blocks = (0..nblk)
+            .filter(|&b| blocks[b].soc)
+            .map(|b| SocCone {
+                start: blocks[b].start,
+                dim: blocks[b].dim,
+                block: b,
+            })
+            .collect();
         Ok(Ipm {
             p,
             nx,
@@ -509,28 +546,29 @@ impl<'a> Ipm<'a> {
                 self.lambda[v] = (s[v] * x[v]).sqrt();
             }
         }
-        for &bi in &self.soc_blocks {
-            let blk = &self.blocks[bi];
-            let r = blk.start..blk.start + blk.dim;
-            let (xs, ss) = (&x[r.clone()], &s[r.clone()]);
-            let dx = soc_det(xs).sqrt();
-            let ds = soc_det(ss).sqrt();
-            let mut dot = 0.0;
-            for k in 0..blk.dim {
-                dot += xs[k] * ss[k];
-            }
-            let gamma = ((1.0 + dot / (dx * ds)) * 0.5).sqrt();
-            let wb = &mut self.w[r.clone()];
-            wb[0] = (ss[0] / ds + xs[0] / dx) / (2.0 * gamma);
-            for k in 1..blk.dim {
-                wb[k] = (ss[k] / ds - xs[k] / dx) / (2.0 * gamma);
-            }
-            self.eta[bi] = (ds / dx).sqrt();
-            let mut lam = [0.0; 8];
-            w_bar_mul(wb, xs, &mut lam[..blk.dim], false);
-            for k in 0..blk.dim {
-                self.lambda[blk.start + k] = lam[k] * self.eta[bi];
-            }
+        for &SocCone { start, dim, block } in &self.soc_blocks {
+            with_dim!(dim, |dim| {
+                let r = start..start + dim;
+                let (xs, ss) = (&x[r.clone()], &s[r.clone()]);
+                let dx = soc_det(xs).sqrt();
+                let ds = soc_det(ss).sqrt();
+                let mut dot = 0.0;
+                for k in 0..dim {
+                    dot += xs[k] * ss[k];
+                }
+                let gamma = ((1.0 + dot / (dx * ds)) * 0.5).sqrt();
+                let wb = &mut self.w[r.clone()];
+                wb[0] = (ss[0] / ds + xs[0] / dx) / (2.0 * gamma);
+                for k in 1..dim {
+                    wb[k] = (ss[k] / ds - xs[k] / dx) / (2.0 * gamma);
+                }
+                let eta = (ds / dx).sqrt();
+                self.eta[block] = eta;
+                w_bar_mul(wb, xs, &mut self.lambda[r], false);
+                for l in &mut self.lambda[start..start + dim] {
+                    *l *= eta;
+                }
+            })
         }
     }
 
@@ -548,21 +586,22 @@ impl<'a> Ipm<'a> {
                 }
             }
         }
-        for &bi in &self.soc_blocks {
-            let blk = &self.blocks[bi];
-            let r = blk.start..blk.start + blk.dim;
-            w_bar_mul(
-                &self.w[r.clone()],
-                &v[r.clone()],
-                &mut out[r.clone()],
-                inverse,
-            );
-            let f = if inverse {
-                1.0 / self.eta[bi]
-            } else {
-                self.eta[bi]
-            };
-            out[r].iter_mut().for_each(|o| *o *= f);
+        for &SocCone { start, dim, block } in &self.soc_blocks {
+            with_dim!(dim, |dim| {
+                let r = start..start + dim;
+                w_bar_mul(
+                    &self.w[r.clone()],
+                    &v[r.clone()],
+                    &mut out[r.clone()],
+                    inverse,
+                );
+                let f = if inverse {
+                    1.0 / self.eta[block]
+                } else {
+                    self.eta[block]
+                };
+                out[r].iter_mut().for_each(|o| *o *= f);
+            })
         }
     }
 
@@ -964,57 +1003,16 @@ impl<'a> Ipm<'a> {
         out.iter_mut().for_each(|o| *o = 0.0);
         let neq = self.neq;
         for (bi, blk) in self.blocks.iter().enumerate() {
-            let nr = blk.rows();
-            if nr == 0 {
-                continue;
-            }
-            let la = &self.local_a[blk.a_off..blk.a_off + nr * blk.dim];
-            let mut vl = [0.0; MAX_ROWS];
-            for a in 0..blk.nnode {
-                let base = B * blk.nodes[a];
-                vl[a * B..a * B + B].copy_from_slice(&v[base..base + B]);
-            }
-            if let Some(l) = blk.level {
-                vl[nr - 1] = v[neq + l];
-            }
-            // t = A_locᵀ v, u = W⁻² t, out += A_loc u.
-            let mut t = [0.0; 8];
-            for c in 0..blk.dim {
-                let col = &la[c * nr..(c + 1) * nr];
-                t[c] = col.iter().zip(&vl[..nr]).map(|(a, b)| a * b).sum();
-            }
-            let mut u = [0.0; 8];
-            if blk.soc {
-                // W⁻² = (2 (Jw̄)(Jw̄)ᵀ − J)/η².
-                let wb = &self.w[blk.start..blk.start + blk.dim];
-                let inv_e2 = 1.0 / (self.eta[bi] * self.eta[bi]);
-                let mut ut = wb[0] * t[0];
-                for k in 1..blk.dim {
-                    ut -= wb[k] * t[k];
-                }
-                u[0] = (2.0 * wb[0] * ut - t[0]) * inv_e2;
-                for k in 1..blk.dim {
-                    u[k] = (t[k] - 2.0 * wb[k] * ut) * inv_e2;
-                }
-            } else {
-                let w = self.w[blk.start];
-                u[0] = t[0] / (w * w);
-            }
-            let mut ol = [0.0; MAX_ROWS];
-            for c in 0..blk.dim {
-                let col = &la[c * nr..(c + 1) * nr];
-                for r in 0..nr {
-                    ol[r] += col[r] * u[c];
-                }
-            }
-            for a in 0..blk.nnode {
-                let base = B * blk.nodes[a];
-                for k in 0..B {
-                    out[base + k] += ol[a * B + k];
-                }
-            }
-            if let Some(l) = blk.level {
-                out[neq + l] += ol[nr - 1];
+            // Constant shapes for the gate's blocks (strength cone on two modules and a level
+            // row; contact cone, nonnegative unknowns on one or two modules or a level row).
+            match (blk.rows(), blk.dim) {
+                (0, _) => {}
+                (13, 7) => self.m_mul_block(bi, blk, 13, 7, v, out),
+                (6, 3) => self.m_mul_block(bi, blk, 6, 3, v, out),
+                (12, 1) => self.m_mul_block(bi, blk, 12, 1, v, out),
+                (6, 1) => self.m_mul_block(bi, blk, 6, 1, v, out),
+                (1, 1) => self.m_mul_block(bi, blk, 1, 1, v, out),
+                (nr, dim) => self.m_mul_block(bi, blk, nr, dim, v, out),
             }
         }
         if let Some((i, coef)) = &self.wmax {
@@ -1024,6 +1022,70 @@ impl<'a> Ipm<'a> {
             for (o, a) in out[neq..].iter_mut().zip(coef) {
                 *o += f * a;
             }
+        }
+    }
+
+    /// out += A_blk W_blk⁻² A_blkᵀ v for one block of `nr` local rows and dimension `dim`
+    /// (inlined with constant shapes by [`Self::m_mul`]).
+    #[inline(always)]
+    fn m_mul_block(
+        &self,
+        bi: usize,
+        blk: &Block,
+        nr: usize,
+        dim: usize,
+        v: &[f64],
+        out: &mut [f64],
+    ) {
+        let neq = self.neq;
+        let nnode = nr / B; // 6 rows per module, then at most one level row
+        let la = &self.local_a[blk.a_off..blk.a_off + nr * dim];
+        let mut vl = [0.0; MAX_ROWS];
+        for a in 0..nnode {
+            let base = B * blk.nodes[a];
+            vl[a * B..a * B + B].copy_from_slice(&v[base..base + B]);
+        }
+        if let Some(l) = blk.level {
+            vl[nr - 1] = v[neq + l];
+        }
+        // t = A_locᵀ v, u = W⁻² t, out += A_loc u.
+        let mut t = [0.0; 8];
+        for c in 0..dim {
+            let col = &la[c * nr..(c + 1) * nr];
+            t[c] = col.iter().zip(&vl[..nr]).map(|(a, b)| a * b).sum();
+        }
+        let mut u = [0.0; 8];
+        if blk.soc {
+            // W⁻² = (2 (Jw̄)(Jw̄)ᵀ − J)/η².
+            let wb = &self.w[blk.start..blk.start + dim];
+            let inv_e2 = 1.0 / (self.eta[bi] * self.eta[bi]);
+            let mut ut = wb[0] * t[0];
+            for k in 1..dim {
+                ut -= wb[k] * t[k];
+            }
+            u[0] = (2.0 * wb[0] * ut - t[0]) * inv_e2;
+            for k in 1..dim {
+                u[k] = (t[k] - 2.0 * wb[k] * ut) * inv_e2;
+            }
+        } else {
+            let w = self.w[blk.start];
+            u[0] = t[0] / (w * w);
+        }
+        let mut ol = [0.0; MAX_ROWS];
+        for c in 0..dim {
+            let col = &la[c * nr..(c + 1) * nr];
+            for r in 0..nr {
+                ol[r] += col[r] * u[c];
+            }
+        }
+        for a in 0..nnode {
+            let base = B * blk.nodes[a];
+            for k in 0..B {
+                out[base + k] += ol[a * B + k];
+            }
+        }
+        if let Some(l) = blk.level {
+            out[neq + l] += ol[nr - 1];
         }
     }
 
@@ -1069,27 +1131,28 @@ impl<'a> Ipm<'a> {
                 rc[i] = (sm - lam[i] * lam[i] - a[i] * b[i]) / lam[i];
             }
         }
-        for &bi in &self.soc_blocks {
-            let blk = &self.blocks[bi];
-            let r = blk.start..blk.start + blk.dim;
-            let (l, av, bv) = (&lam[r.clone()], &a[r.clone()], &b[r.clone()]);
-            let mut t = [0.0; 8];
-            let ll: f64 = l.iter().map(|v| v * v).sum();
-            let ab: f64 = av.iter().zip(bv).map(|(p, q)| p * q).sum();
-            t[0] = sm - ll - ab;
-            for k in 1..blk.dim {
-                t[k] = -(2.0 * l[0] * l[k]) - (av[0] * bv[k] + bv[0] * av[k]);
-            }
-            // u = λ \ t: u0 = (λ0 t0 − λ1ᵀt1)/det λ, u1 = (t1 − u0 λ1)/λ0.
-            let mut l1t1 = 0.0;
-            for k in 1..blk.dim {
-                l1t1 += l[k] * t[k];
-            }
-            let u0 = (l[0] * t[0] - l1t1) / soc_det(l);
-            rc[blk.start] = u0;
-            for k in 1..blk.dim {
-                rc[blk.start + k] = (t[k] - u0 * l[k]) / l[0];
-            }
+        for &SocCone { start, dim, .. } in &self.soc_blocks {
+            with_dim!(dim, |dim| {
+                let r = start..start + dim;
+                let (l, av, bv) = (&lam[r.clone()], &a[r.clone()], &b[r.clone()]);
+                let mut t = [0.0; 8];
+                let ll: f64 = l.iter().map(|v| v * v).sum();
+                let ab: f64 = av.iter().zip(bv).map(|(p, q)| p * q).sum();
+                t[0] = sm - ll - ab;
+                for k in 1..dim {
+                    t[k] = -(2.0 * l[0] * l[k]) - (av[0] * bv[k] + bv[0] * av[k]);
+                }
+                // u = λ \ t: u0 = (λ0 t0 − λ1ᵀt1)/det λ, u1 = (t1 − u0 λ1)/λ0.
+                let mut l1t1 = 0.0;
+                for k in 1..dim {
+                    l1t1 += l[k] * t[k];
+                }
+                let u0 = (l[0] * t[0] - l1t1) / soc_det(l);
+                rc[start] = u0;
+                for k in 1..dim {
+                    rc[start + k] = (t[k] - u0 * l[k]) / l[0];
+                }
+            })
         }
     }
 
@@ -1103,10 +1166,11 @@ impl<'a> Ipm<'a> {
                 }
             }
         }
-        for &bi in &self.soc_blocks {
-            let blk = &self.blocks[bi];
-            let r = blk.start..blk.start + blk.dim;
-            alpha = alpha.min(soc_step(&v[r.clone()], &d[r]));
+        for &SocCone { start, dim, .. } in &self.soc_blocks {
+            with_dim!(dim, |dim| {
+                let r = start..start + dim;
+                alpha = alpha.min(soc_step(&v[r.clone()], &d[r]));
+            })
         }
         alpha
     }
@@ -1192,6 +1256,7 @@ fn add_sym(
 }
 
 /// x0² − ‖x1‖² of a second-order-cone vector.
+#[inline(always)]
 fn soc_det(x: &[f64]) -> f64 {
     let n1: f64 = x[1..].iter().map(|v| v * v).sum();
     (x[0] - n1.sqrt()) * (x[0] + n1.sqrt())
@@ -1199,7 +1264,7 @@ fn soc_det(x: &[f64]) -> f64 {
 
 /// out = W̄ v (or W̄⁻¹ v = J W̄ J v) for the normalised scaling point w̄ (det w̄ = 1):
 /// W̄ = [[w̄0, w̄1ᵀ], [w̄1, I + w̄1 w̄1ᵀ/(1 + w̄0)]].
-#[inline]
+#[inline(always)]
 fn w_bar_mul(wb: &[f64], v: &[f64], out: &mut [f64], inverse: bool) {
     let sgn = if inverse { -1.0 } else { 1.0 };
     let mut w1v1 = 0.0;
@@ -1214,6 +1279,7 @@ fn w_bar_mul(wb: &[f64], v: &[f64], out: &mut [f64], inverse: bool) {
 }
 
 /// Largest α ≥ 0 with x + α d in the second-order cone (x strictly inside).
+#[inline(always)]
 fn soc_step(x: &[f64], d: &[f64]) -> f64 {
     let a = soc_det(d);
     let mut xd1 = 0.0;
