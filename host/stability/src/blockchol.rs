@@ -390,6 +390,17 @@ impl BlockCholesky {
         }
     }
 
+    /// The stored input block of `slot` (column-major, in L's orientation: row node of L as
+    /// rows), and whether that is the transpose of the block (i, j) the slot was asked for. A
+    /// caller that adds into it directly adds (i, j)'s block, transposed when so told; on a
+    /// diagonal slot only the lower triangle is read.
+    #[inline(always)]
+    pub fn block_mut(&mut self, slot: Slot) -> (&mut [f64; 36], bool) {
+        let o = slot.idx as usize * BB;
+        let v: &mut [f64; BB] = (&mut self.vals[o..o + BB]).try_into().unwrap();
+        (v, slot.kind == SlotKind::Upper)
+    }
+
     /// Numeric factorisation A + shift·I = L Lᵀ (permuted order) of the current input values.
     pub fn factor(&mut self, shift: f64) -> Result<(), FactorError> {
         #[cfg(target_arch = "x86_64")]

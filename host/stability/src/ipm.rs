@@ -1228,22 +1228,31 @@ fn add_sym(
     c2: f64,
 ) {
     let nm = B * nnode;
-    let mut blk = [0.0; 36];
-    let mut put = |chol: &mut BlockCholesky, slot: Slot, a: usize, b: usize| {
-        for r in 0..B {
-            let qa = c2 * q[a * B + r];
-            let qb: &[f64; B] = q[b * B..b * B + B].try_into().unwrap_or(&[0.0; B]);
-            for c in 0..B {
-                blk[r * B + c] = qa * qb[c];
-            }
-            if let Some(pm) = pm {
-                let o = (a * B + r) * nm + b * B;
-                for c in 0..B {
-                    blk[r * B + c] += c1 * pm[o + c];
+    // Block (a, b) is c2 q_a q_bᵀ + c1 P_ab; stored column-major in L's orientation, i.e. as
+    // (x, y) = (a, b) or, for a transposed slot, (b, a): column c gets c2 q_y[c] q_x +
+    // c1 P[y c, x ·] (P is symmetric, so that column of P_xy is contiguous).
+    let put = |chol: &mut BlockCholesky, slot: Slot, a: usize, b: usize| {
+        let (v, transposed) = chol.block_mut(slot);
+        let (x, y) = if transposed { (b, a) } else { (a, b) };
+        let qx: &[f64; B] = q[x * B..x * B + B].try_into().unwrap();
+        for c in 0..B {
+            let f = c2 * q[y * B + c];
+            let col: &mut [f64; B] = (&mut v[c * B..c * B + B]).try_into().unwrap();
+            match pm {
+                Some(pm) => {
+                    let o = (y * B + c) * nm + x * B;
+                    let pc: &[f64; B] = pm[o..o + B].try_into().unwrap();
+                    for r in 0..B {
+                        col[r] += f * qx[r] + c1 * pc[r];
+                    }
+                }
+                None => {
+                    for r in 0..B {
+                        col[r] += f * qx[r];
+                    }
                 }
             }
         }
-        chol.add(slot, &blk);
     };
     for a in 0..nnode {
         if let Some(slot) = diag[a] {
