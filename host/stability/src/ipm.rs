@@ -1230,27 +1230,28 @@ fn add_sym(
     let nm = B * nnode;
     // Block (a, b) is c2 q_a q_bᵀ + c1 P_ab; stored column-major in L's orientation, i.e. as
     // (x, y) = (a, b) or, for a transposed slot, (b, a): column c gets c2 q_y[c] q_x +
-    // c1 P[y c, x ·] (P is symmetric, so that column of P_xy is contiguous).
+    // c1 P[y c, x ·] (P is symmetric, so that column of P_xy is contiguous). The products are
+    // rounded as (c2 q_a[r]) q_b[c] either way (the iteration counts are sensitive to it).
     let put = |chol: &mut BlockCholesky, slot: Slot, a: usize, b: usize| {
         let (v, transposed) = chol.block_mut(slot);
         let (x, y) = if transposed { (b, a) } else { (a, b) };
         let qx: &[f64; B] = q[x * B..x * B + B].try_into().unwrap();
+        let cqx = qx.map(|e| c2 * e);
         for c in 0..B {
-            let f = c2 * q[y * B + c];
+            let qyc = q[y * B + c];
+            let cqyc = c2 * qyc;
             let col: &mut [f64; B] = (&mut v[c * B..c * B + B]).try_into().unwrap();
-            match pm {
-                Some(pm) => {
-                    let o = (y * B + c) * nm + x * B;
-                    let pc: &[f64; B] = pm[o..o + B].try_into().unwrap();
-                    for r in 0..B {
-                        col[r] += f * qx[r] + c1 * pc[r];
-                    }
-                }
-                None => {
-                    for r in 0..B {
-                        col[r] += f * qx[r];
-                    }
-                }
+            let o = (y * B + c) * nm + x * B;
+            for r in 0..B {
+                let outer = if transposed {
+                    cqyc * qx[r]
+                } else {
+                    cqx[r] * qyc
+                };
+                col[r] += match pm {
+                    Some(pm) => outer + c1 * pm[o + r],
+                    None => outer,
+                };
             }
         }
     };
