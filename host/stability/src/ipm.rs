@@ -1236,23 +1236,34 @@ fn add_sym(
         let (v, transposed) = chol.block_mut(slot);
         let (x, y) = if transposed { (b, a) } else { (a, b) };
         let qx: &[f64; B] = q[x * B..x * B + B].try_into().unwrap();
-        let cqx = qx.map(|e| c2 * e);
-        for c in 0..B {
-            let qyc = q[y * B + c];
-            let cqyc = c2 * qyc;
-            let col: &mut [f64; B] = (&mut v[c * B..c * B + B]).try_into().unwrap();
-            let o = (y * B + c) * nm + x * B;
-            for r in 0..B {
-                let outer = if transposed {
-                    cqyc * qx[r]
-                } else {
-                    cqx[r] * qyc
-                };
-                col[r] += match pm {
-                    Some(pm) => outer + c1 * pm[o + r],
-                    None => outer,
-                };
+        let qy: &[f64; B] = q[y * B..y * B + B].try_into().unwrap();
+        let mut blk = [0.0; 36];
+        if transposed {
+            for c in 0..B {
+                let f = c2 * qy[c];
+                for r in 0..B {
+                    blk[c * B + r] = f * qx[r];
+                }
             }
+        } else {
+            let cqx = qx.map(|e| c2 * e);
+            for c in 0..B {
+                for r in 0..B {
+                    blk[c * B + r] = cqx[r] * qy[c];
+                }
+            }
+        }
+        if let Some(pm) = pm {
+            for c in 0..B {
+                let o = (y * B + c) * nm + x * B;
+                let pc: &[f64; B] = pm[o..o + B].try_into().unwrap();
+                for r in 0..B {
+                    blk[c * B + r] += c1 * pc[r];
+                }
+            }
+        }
+        for (vi, bi) in v.iter_mut().zip(&blk) {
+            *vi += bi;
         }
     };
     for a in 0..nnode {

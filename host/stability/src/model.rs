@@ -248,11 +248,12 @@ fn err(field: impl Into<String>, message: impl Into<String>) -> ModelError {
     }
 }
 
-fn finite3(v: &Vec3, field: &str) -> Result<(), ModelError> {
+/// Every component finite; the field's name is only built for the error.
+fn finite3(v: &Vec3, field: impl FnOnce() -> String) -> Result<(), ModelError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(err(field, "non-finite number"))
+        Err(err(field(), "non-finite number"))
     }
 }
 
@@ -381,7 +382,7 @@ pub struct RContact {
 impl Assembly {
     /// Check every field and resolve ids and frames; errors name the field.
     pub fn resolve(&self) -> Result<Resolved, ModelError> {
-        finite3(&self.gravity, "gravity")?;
+        finite3(&self.gravity, || "gravity".into())?;
         let mut index: HashMap<&str, usize> = HashMap::with_capacity(self.modules.len());
         let n = self.modules.len();
         let mut com = Vec::with_capacity(n);
@@ -400,9 +401,9 @@ impl Assembly {
             if !(m.mass.is_finite() && m.mass >= 0.0) {
                 return Err(err(f("mass"), "must be a finite number ≥ 0"));
             }
-            finite3(&m.position, &f("position"))?;
-            finite3(&m.rpy, &f("rpy"))?;
-            finite3(&m.com, &f("com"))?;
+            finite3(&m.position, || f("position"))?;
+            finite3(&m.rpy, || f("rpy"))?;
+            finite3(&m.com, || f("com"))?;
             let r = rot_rpy(m.rpy);
             let c = add(
                 m.position,
@@ -417,11 +418,11 @@ impl Assembly {
             ids.push(m.id.clone());
             ext.push((scale(self.gravity, m.mass), [0.0; 3]));
         }
-        let lookup = |id: &str, field: String| -> Result<usize, ModelError> {
+        let lookup = |id: &str, field: &dyn Fn() -> String| -> Result<usize, ModelError> {
             index
                 .get(id)
                 .copied()
-                .ok_or_else(|| err(field, format!("unknown module {id:?}")))
+                .ok_or_else(|| err(field(), format!("unknown module {id:?}")))
         };
         let mut connector_names = Vec::new();
         let mut connectors = Vec::new();
@@ -471,8 +472,8 @@ impl Assembly {
         let mut connections = Vec::with_capacity(self.connections.len());
         for (k, c) in self.connections.iter().enumerate() {
             let f = |s: &str| format!("connections[{k}].{s}");
-            let child = lookup(&c.child, f("child"))?;
-            let parent = lookup(&c.parent, f("parent"))?;
+            let child = lookup(&c.child, &|| f("child"))?;
+            let parent = lookup(&c.parent, &|| f("parent"))?;
             if child == parent {
                 return Err(err(f("parent"), "a module cannot connect to itself"));
             }
@@ -482,16 +483,16 @@ impl Assembly {
                     format!("unknown connector type {:?}", c.connector),
                 )
             })?;
-            finite3(&c.point, &f("point"))?;
+            finite3(&c.point, || f("point"))?;
             let z = match c.axis {
                 Some(a) => {
-                    finite3(&a, &f("axis"))?;
+                    finite3(&a, || f("axis"))?;
                     a
                 }
                 None => sub(com[child], c.point),
             };
             if let Some(h) = c.x_axis {
-                finite3(&h, &f("x_axis"))?;
+                finite3(&h, || f("x_axis"))?;
             }
             let frame = frame_from_z(z, c.x_axis).ok_or_else(|| {
                 err(
@@ -514,13 +515,13 @@ impl Assembly {
                        xh: Option<Vec3>,
                        f: &dyn Fn(&str) -> String|
          -> Result<RContact, ModelError> {
-            finite3(point, &f("point"))?;
-            finite3(&normal, &f("normal"))?;
+            finite3(point, || f("point"))?;
+            finite3(&normal, || f("normal"))?;
             if mu.iter().any(|m| !(m.is_finite() && *m >= 0.0)) {
                 return Err(err(f("mu"), "friction coefficients must be finite and ≥ 0"));
             }
             if let Some(h) = xh {
-                finite3(&h, &f("x_axis"))?;
+                finite3(&h, || f("x_axis"))?;
             }
             let frame = frame_from_z(normal, xh).ok_or_else(|| err(f("normal"), "zero normal"))?;
             Ok(RContact {
@@ -533,7 +534,7 @@ impl Assembly {
         let mut contacts = Vec::with_capacity(self.contacts.len());
         for (k, c) in self.contacts.iter().enumerate() {
             let f = |s: &str| format!("contacts[{k}].{s}");
-            let m = lookup(&c.module, f("module"))?;
+            let m = lookup(&c.module, &|| f("module"))?;
             let xh = c.x_axis.or(Some([1.0, 0.0, 0.0]));
             contacts.push(contact(
                 m,
@@ -547,8 +548,8 @@ impl Assembly {
         let mut module_contacts = Vec::with_capacity(self.module_contacts.len());
         for (k, c) in self.module_contacts.iter().enumerate() {
             let f = |s: &str| format!("module_contacts[{k}].{s}");
-            let m = lookup(&c.module, f("module"))?;
-            let o = lookup(&c.other, f("other"))?;
+            let m = lookup(&c.module, &|| f("module"))?;
+            let o = lookup(&c.other, &|| f("other"))?;
             if m == o {
                 return Err(err(f("other"), "a module cannot touch itself"));
             }
@@ -556,12 +557,12 @@ impl Assembly {
         }
         for (k, l) in self.loads.iter().enumerate() {
             let f = |s: &str| format!("loads[{k}].{s}");
-            let m = lookup(&l.module, f("module"))?;
-            finite3(&l.force, &f("force"))?;
-            finite3(&l.couple, &f("couple"))?;
+            let m = lookup(&l.module, &|| f("module"))?;
+            finite3(&l.force, || f("force"))?;
+            finite3(&l.couple, || f("couple"))?;
             let p = match l.point {
                 Some(p) => {
-                    finite3(&p, &f("point"))?;
+                    finite3(&p, || f("point"))?;
                     p
                 }
                 None => com[m],

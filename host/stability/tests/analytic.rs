@@ -396,6 +396,25 @@ fn errors_name_the_field() {
     let mut a = cantilever(2, 0.1, 0.05, 1.0, 1.0);
     a.connections[0].connector = "x".into();
     assert_eq!(a.resolve().unwrap_err().field, "connections[0].connector");
+    // Non-finite numbers: the field names are built only for the error, and still exact.
+    let mut a = cantilever(2, 0.1, 0.05, 1.0, 1.0);
+    a.modules[1].position[2] = f64::NAN;
+    let e = a.resolve().unwrap_err();
+    assert_eq!(
+        (e.field.as_str(), e.message.as_str()),
+        ("modules[1].position", "non-finite number")
+    );
+    let mut a = cantilever(2, 0.1, 0.05, 1.0, 1.0);
+    a.connections[1].point[0] = f64::INFINITY;
+    assert_eq!(a.resolve().unwrap_err().field, "connections[1].point");
+    let mut a = cantilever(2, 0.1, 0.05, 1.0, 1.0);
+    a.gravity[1] = f64::NAN;
+    assert_eq!(a.resolve().unwrap_err().field, "gravity");
+    let mut a = cantilever(2, 0.1, 0.05, 1.0, 1.0);
+    a.connections[0].child = "ghost".into();
+    let e = a.resolve().unwrap_err();
+    assert_eq!(e.field, "connections[0].child");
+    assert!(e.message.contains("ghost"), "{}", e.message);
 }
 
 #[test]
