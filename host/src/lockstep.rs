@@ -20,6 +20,10 @@ use puzzlebot_sim::{RobotTruth, Scenario, SimEvent, World};
 use crate::control::{Controller, FleetView, HandRequest, LoopOptions, RobotView};
 use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
 
+/// Mixed into the scenario's seed for the command jitter's generator (the simulator draws
+/// its own noise from the seed itself).
+const JITTER_SEED: u64 = 0x6a09_e667_f3bc_c909;
+
 /// The host side of every robot's session, in process.
 struct Host {
     key: FleetKey,
@@ -121,6 +125,11 @@ pub struct Lockstep {
     estimated: BTreeMap<RobotId, u64>,
     /// Simulated controller latency: commands apply this long after the tick (µs).
     command_delay_us: u64,
+    /// Extra latency drawn per tick from [0, this) (µs; 0 = none), as a loaded real host's
+    /// solve times vary.
+    command_jitter_us: u64,
+    /// Draws the jitter; seeded from the scenario's seed, so runs stay reproducible.
+    jitter_rng: rand::rngs::StdRng,
 }
 
 impl Lockstep {
@@ -176,6 +185,8 @@ impl Lockstep {
             stale_us: u64::from(scenario.params.rates.pose_stale_after_ms) * 1000,
             estimated: BTreeMap::new(),
             command_delay_us: 0,
+            command_jitter_us: 0,
+            jitter_rng: rand::SeedableRng::seed_from_u64(scenario.seed ^ JITTER_SEED),
         })
     }
 
@@ -185,6 +196,14 @@ impl Lockstep {
     /// periods: 1–33 ms all act as one period (measured: 10, 20 and 30 ms gave identical runs).
     pub fn command_delay(mut self, ms: f64) -> Self {
         self.command_delay_us = (ms.max(0.0) * 1000.0) as u64;
+        self
+    }
+
+    /// Every tick's commands take effect a further random delay in [0, `ms`) later (uniform,
+    /// drawn from the scenario's seed: the same scenario gives the same run), as on a real
+    /// host whose solve times vary under load. Commands keep their order. Default 0.
+    pub fn command_jitter(mut self, ms: f64) -> Self {
+        self.command_jitter_us = (ms.max(0.0) * 1000.0) as u64;
         self
     }
 
@@ -296,7 +315,15 @@ impl Lockstep {
                     }
                     // The controller's own latency (its solve time on a real host): its
                     // commands take effect `command_delay_us` later.
-                    pending.push_back((now + self.command_delay_us, new_cmds));
+                    let jitter = if self.command_jitter_us > 0 {
+                        rand::Rng::random_range(&mut self.jitter_rng, 0..self.command_jitter_us)
+                    } else {
+                        0
+                    };
+                    // A later tick's commands never overtake an earlier tick's.
+                    let after = pending.back().map_or(0, |&(at, _)| at);
+                    pending
+                        .push_back(((now + self.command_delay_us + jitter).max(after), new_cmds));
                     if ctl.done(t) {
                         done = true;
                         break;

@@ -16,7 +16,9 @@
 //! - six robots (one pilot) scattered over 0.6 m × 0.6 m grow a 2-row mesh around the pilot,
 //!   one robot at a time round the others, and drive it 0.5 m;
 //! - `puzzlebot demo` (the grown mesh driven 0.5 m), exactly as the binary runs it;
-//! - (ignored, failing) issue 7's full demo: 6 robots with 2 pilots, dissolving, dispersing.
+//! - issue 7's full demo as `puzzlebot demo` runs it: 6 robots with 2 pilots grow a mesh,
+//!   move it, dissolve it and disperse (the other demo test: one pilot);
+//! - a run with random controller latency (`Lockstep::command_jitter`) is reproducible.
 //!
 //! The decoupling, lost-robot and gate tests run with 30 ms of controller latency (a real
 //! host's solve time). The driving line and the mesh run without. Measured 2026-12-01 over
@@ -799,4 +801,55 @@ fn the_assembly_demo_grows_a_mesh_drives_it_dissolves_it_and_disperses() {
             "robot {id} ended at {at:?}, its goal {g:?}"
         );
     }
+}
+
+/// The line's formation step alone, run with `jitter_ms` of random controller latency on top
+/// of 30 ms: the controller's events (with times) and the final ground-truth poses.
+fn line_formation_with_jitter(seed: u64, jitter_ms: f64) -> (Vec<String>, Vec<[f64; 3]>) {
+    let f = sim(&seeded_fleet_text(
+        seed,
+        &[
+            (1, "NonPilot", [0.0, 0.0, 0.0]),
+            (2, "NonPilot", [-0.085, 0.01, 0.1]),
+            (3, "NonPilot", [-0.17, -0.01, -0.1]),
+            (4, "NonPilot", [-0.255, 0.0, 0.05]),
+        ],
+    ));
+    let mut ctl = controller(
+        &f,
+        "name = \"line\"\n[[step]]\nform = { shape = \"line\", heading_deg = 0 }\ntimeout_s = 40\n",
+    );
+    let mut ls = Lockstep::new(&f)
+        .expect("lockstep world")
+        .command_delay(30.0)
+        .command_jitter(jitter_ms);
+    ls.run(&mut ctl, 45.0, |_, _| {});
+    let poses = ls
+        .world
+        .ground_truth()
+        .robots
+        .iter()
+        .map(|r| [r.pose.x, r.pose.y, r.pose.yaw])
+        .collect();
+    (asm_events(&ctl), poses)
+}
+
+#[test]
+// Controller latency that varies tick to tick (a loaded host) is what the real-time line
+// meets and the fixed-latency lockstep does not. Measured 2026-12-03 with this option, the
+// line's formation alone over seeds 1-120 at 30 ms plus U(0, j) ms: j = 0 formed 120 of 120,
+// j = 150 116 and j = 200 116 (the failures: a pair that popped and was not coupled again
+// within the 40 s; with an earlier generator's draw, seeds 13 and 112 at j = 200 stalled as
+// the real-time line does, the two coupled pairs aligning towards each other for the last
+// 20 s). The option is for finding such failures; this test checks only that
+// a jittered run is reproducible and that the jitter takes effect.
+fn command_jitter_is_reproducible_from_the_seed_and_changes_the_run() {
+    let a = line_formation_with_jitter(2, 100.0);
+    let b = line_formation_with_jitter(2, 100.0);
+    assert_eq!(a, b, "the same seed and jitter give the same run");
+    let steady = line_formation_with_jitter(2, 0.0);
+    assert_ne!(
+        a.1, steady.1,
+        "100 ms of jitter changes where the robots end"
+    );
 }
