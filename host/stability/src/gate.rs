@@ -100,6 +100,14 @@ pub struct Stats {
     pub iterations: u32,
     /// Structured solves ([`crate::ipm`]) that gave no optimum and were handed to Clarabel.
     pub fallbacks: u32,
+    /// Work of the structured solves that reached an optimum: numeric factorisations of the
+    /// normal matrix, solves with it, and matrix-free products (refinement) — exact counts,
+    /// for judging a change where wall-clock time is noisy.
+    pub factorisations: u32,
+    /// See [`Stats::factorisations`].
+    pub normal_solves: u32,
+    /// See [`Stats::factorisations`].
+    pub normal_products: u32,
     /// Seconds building the model(s) (resolve + sparse assembly).
     pub build_seconds: f64,
     /// Seconds in the solver.
@@ -377,6 +385,9 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
                 solves: 0,
                 iterations: 0,
                 fallbacks: 0,
+                factorisations: 0,
+                normal_solves: 0,
+                normal_products: 0,
                 build_seconds: total,
                 solve_seconds: 0.0,
                 total_seconds: total,
@@ -390,6 +401,9 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
         solves: 0,
         iterations: 0,
         fallbacks: 0,
+        factorisations: 0,
+        normal_solves: 0,
+        normal_products: 0,
         build_seconds: build0,
         solve_seconds: 0.0,
         total_seconds: 0.0,
@@ -412,6 +426,9 @@ pub fn evaluate_resolved(r: &Resolved, opt: Options, t0: Instant, build0: f64) -
             match res {
                 Ok((x, info)) => {
                     stats.iterations += info.iterations;
+                    stats.factorisations += info.factorisations;
+                    stats.normal_solves += info.solves;
+                    stats.normal_products += info.products;
                     return (p, Outcome::Optimal(x));
                 }
                 Err(crate::ipm::Declined::NotConverged { iterations }) => {

@@ -45,11 +45,19 @@ pub enum Declined {
     },
 }
 
-/// Statistics of a successful solve.
+/// Statistics of a successful solve: the iterations and the work they took (the exact counts
+/// that decide the solve time, where wall-clock time on a shared machine is noisy).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct IpmInfo {
     /// Interior-point iterations.
     pub iterations: u32,
+    /// Numeric factorisations of the normal matrix (the initial point's, one per iteration,
+    /// and one per direction recomputed with a raised regularisation).
+    pub factorisations: u32,
+    /// Solves with the factorised normal matrix (two per iteration, plus refinement).
+    pub solves: u32,
+    /// Matrix-free products with the exact normal matrix (iterative refinement).
+    pub products: u32,
 }
 
 /// Largest local row count of a cone block: two modules' rows plus one level row.
@@ -201,6 +209,8 @@ struct Ipm<'a> {
     /// Static regularisation of the block factorisation (raised when a direction cannot be
     /// refined).
     reg: f64,
+    /// Work done so far (iterations filled in at the end).
+    work: IpmInfo,
     /// Scratch.
     tmp_e: Vec<f64>,
     tmp_v: Vec<f64>,
@@ -504,6 +514,7 @@ impl<'a> Ipm<'a> {
             pf_pp: 0.0,
             d_wmax: 0.0,
             reg: STATIC_REG,
+            work: IpmInfo::default(),
             tmp_e: vec![0.0; neq],
             tmp_v: vec![0.0; neq + nlev],
             tmp_rhs: vec![0.0; neq + nlev],
@@ -608,6 +619,7 @@ impl<'a> Ipm<'a> {
     /// Assemble the normal matrix A W⁻² Aᵀ (level rows eliminated), factorise it, and
     /// prepare w_A^max's product-form vector p = R⁻¹ a.
     fn factor(&mut self) -> Result<(), Declined> {
+        self.work.factorisations += 1;
         self.chol.clear();
         self.g.iter_mut().for_each(|v| *v = 0.0);
         self.h.iter_mut().for_each(|v| *v = 0.0);
@@ -806,6 +818,7 @@ impl<'a> Ipm<'a> {
 
     /// z = M⁻¹ r = R⁻ᵀ (I + d p pᵀ)⁻¹ R⁻¹ r.
     fn solve_m(&mut self, r: &[f64], z: &mut [f64]) {
+        self.work.solves += 1;
         let mut v = std::mem::take(&mut self.tmp_v);
         self.r_inv(r, &mut v);
         if self.d_wmax > 0.0 {
@@ -874,7 +887,13 @@ impl<'a> Ipm<'a> {
             let scale = pcost.abs().min(dcost.abs()).max(1.0);
             let gap_ok = gap <= tol * scale && (pcost - dcost).abs() <= tol * scale;
             if pres <= tol && dres <= tol && gap_ok {
-                return Ok((x, IpmInfo { iterations: iter }));
+                return Ok((
+                    x,
+                    IpmInfo {
+                        iterations: iter,
+                        ..self.work
+                    },
+                ));
             }
             if iter == max_iter || !(gap.is_finite() && pcost.is_finite()) {
                 break;
@@ -1103,6 +1122,7 @@ impl<'a> Ipm<'a> {
         let mut last = f64::INFINITY;
         let mut out = f64::INFINITY;
         for step in 0..=REFINE_STEPS {
+            self.work.products += 1;
             self.m_mul(dy, &mut res);
             for j in 0..m {
                 res[j] = rhs[j] - res[j];

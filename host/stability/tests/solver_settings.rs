@@ -65,3 +65,34 @@ fn fast_attempt_alone_certifies_the_same_status() {
         );
     }
 }
+
+#[test]
+fn the_structured_solvers_work_is_counted() {
+    // The exact counts `puzzlebot-gate time` prints (the measure of a solver change where
+    // wall-clock time is noisy): one factorisation for the initial point and one per
+    // iteration at least, a predictor and a corrector solve per iteration plus the initial
+    // point's two, a refinement product only where a solve refines.
+    let a = Family::parse("mesh").expect("known family").build(100, 7);
+    let s = evaluate_with(&a, Options::default()).expect("valid").stats;
+    assert_eq!(s.fallbacks, 0);
+    assert!(s.iterations > 0);
+    assert!(s.factorisations > s.iterations, "{s:?}");
+    assert!(s.normal_solves >= 2 * s.iterations + 2, "{s:?}");
+    assert!(s.normal_products <= s.normal_solves, "{s:?}");
+    // The fast path solves no cone program: no work counted.
+    let tree = Family::parse("tree-hanging")
+        .expect("known family")
+        .build(30, 7);
+    let s = evaluate_with(&tree, Options::default())
+        .expect("valid")
+        .stats;
+    assert_eq!(
+        (
+            s.iterations,
+            s.factorisations,
+            s.normal_solves,
+            s.normal_products
+        ),
+        (0, 0, 0, 0)
+    );
+}

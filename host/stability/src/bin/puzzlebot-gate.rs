@@ -116,7 +116,7 @@ fn main() -> ExitCode {
                 let n = a.modules.len();
                 if let Some(r) = last {
                     println!(
-                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms cpu median {cpu_median} ({:.1} µs/module) path={:?} iters={} fallbacks={}",
+                        "{}: n={n} verdict={} w_max={:.6} best {:.3} ms median {:.3} ms cpu median {cpu_median} ({:.1} µs/module) path={:?} iters={} fallbacks={} factorisations={} solves={} products={}",
                         f.display(),
                         r.verdict.name(),
                         r.max_strength.unwrap_or(f64::NAN),
@@ -125,7 +125,10 @@ fn main() -> ExitCode {
                         times[0] * 1e6 / n as f64,
                         r.stats.path,
                         r.stats.iterations,
-                        r.stats.fallbacks
+                        r.stats.fallbacks,
+                        r.stats.factorisations,
+                        r.stats.normal_solves,
+                        r.stats.normal_products
                     );
                 }
             }
