@@ -365,26 +365,16 @@ impl BlockCholesky {
     /// A[i][j] += blk (row-major) for the slot of (i, j), and A[j][i] += blkᵀ if i != j. For a
     /// diagonal slot only the lower triangle of `blk` (entries `blk[6 r + c]`, r ≥ c) is read.
     pub fn add(&mut self, slot: Slot, blk: &[f64; 36]) {
-        let o = slot.idx as usize * BB;
-        let v: &mut [f64; BB] = (&mut self.vals[o..o + BB]).try_into().unwrap();
-        match slot.kind {
-            SlotKind::Diag => {
-                for c in 0..B {
-                    for r in c..B {
-                        v[c * B + r] += blk[r * B + c];
-                    }
-                }
+        let lower_only = slot.kind == SlotKind::Diag;
+        let (v, transposed) = self.block_mut(slot);
+        if transposed {
+            for (x, y) in v.iter_mut().zip(blk) {
+                *x += y;
             }
-            SlotKind::Lower => {
-                for c in 0..B {
-                    for r in 0..B {
-                        v[c * B + r] += blk[r * B + c];
-                    }
-                }
-            }
-            SlotKind::Upper => {
-                for (x, y) in v.iter_mut().zip(blk) {
-                    *x += y;
+        } else {
+            for c in 0..B {
+                for r in if lower_only { c } else { 0 }..B {
+                    v[c * B + r] += blk[r * B + c];
                 }
             }
         }

@@ -52,7 +52,8 @@ pub struct IpmInfo {
     /// Interior-point iterations.
     pub iterations: u32,
     /// Numeric factorisations of the normal matrix (the initial point's, one per iteration,
-    /// and one per direction recomputed with a raised regularisation).
+    /// and one more per raise of the regularisation: a failed pivot or a direction that
+    /// could not be refined).
     pub factorisations: u32,
     /// Solves with the factorised normal matrix (two per iteration, plus refinement).
     pub solves: u32,
