@@ -33,8 +33,9 @@ pub use reject::{EncodeError, Rejection};
 pub use replay::ReplayWindow;
 pub use session::{HostReceived, HostSession, RobotSession, PENDING_OFFERS};
 
-/// Protocol version carried in every datagram's first byte.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// Protocol version carried in every datagram's first byte. Version 2 added the
+/// announce's `reset_reason`; a frame of any other version is refused as `bad_version`.
+pub const PROTOCOL_VERSION: u8 = 2;
 /// Size of the fixed header (version, flags, robot id, 48-bit counter).
 pub const HEADER_LEN: usize = 10;
 /// Size of the truncated HMAC-SHA256 tag.

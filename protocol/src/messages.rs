@@ -88,6 +88,69 @@ pub struct Announce {
     pub protocol_version: u8,
     /// Fresh per boot and per announce cycle; the session key depends on it.
     pub robot_nonce: Nonce,
+    /// Why the robot's processor last reset (the same in every announce of one boot).
+    pub reset_reason: ResetReason,
+}
+
+/// Why a robot's processor last reset, as its firmware found out at boot.
+///
+/// Panics, CPU exceptions, stack overflows and out-of-memory all end in the panic handler
+/// (the log on the USB port says which); a stalled control loop ends in the main watchdog.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ResetReason {
+    /// The firmware could not tell (a simulator or test robot that was never told).
+    Unknown,
+    /// Power was applied (battery switched on, USB plugged in).
+    PowerOn,
+    /// A deliberate software restart that was not a fault (e.g. after flashing).
+    Software,
+    /// Panic, CPU exception, stack overflow or out-of-memory: outputs made safe, then reset.
+    Panic,
+    /// The control loop stopped feeding the main watchdog (hang, starved task).
+    Hang,
+    /// The RTC watchdog fired: start-up never reached the control loop, or the main
+    /// watchdog failed to catch a hang.
+    BootHang,
+    /// The supply dropped below the brown-out threshold.
+    BrownOut,
+    /// Any other hardware reset (reset pin, debugger, USB/JTAG, clock glitch).
+    Other,
+}
+
+impl ResetReason {
+    /// Every reason, in wire order.
+    pub const ALL: [ResetReason; 8] = [
+        ResetReason::Unknown,
+        ResetReason::PowerOn,
+        ResetReason::Software,
+        ResetReason::Panic,
+        ResetReason::Hang,
+        ResetReason::BootHang,
+        ResetReason::BrownOut,
+        ResetReason::Other,
+    ];
+
+    /// True when the reset followed a fault the host should hear about.
+    pub fn is_fault(self) -> bool {
+        matches!(
+            self,
+            ResetReason::Panic | ResetReason::Hang | ResetReason::BootHang | ResetReason::BrownOut
+        )
+    }
+
+    /// Short lower-case name for logs (`panic`, `hang`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            ResetReason::Unknown => "unknown",
+            ResetReason::PowerOn => "power_on",
+            ResetReason::Software => "software",
+            ResetReason::Panic => "panic",
+            ResetReason::Hang => "hang",
+            ResetReason::BootHang => "boot_hang",
+            ResetReason::BrownOut => "brown_out",
+            ResetReason::Other => "other",
+        }
+    }
 }
 
 /// Messages the host sends to a robot.

@@ -73,6 +73,7 @@ pub struct RobotSession {
     robot_nonce: Nonce,
     hello_tx: u64,
     active: Option<Active>,
+    reset_reason: crate::ResetReason,
 }
 
 impl RobotSession {
@@ -86,7 +87,18 @@ impl RobotSession {
             robot_nonce: boot_nonce,
             hello_tx: 0,
             active: None,
+            reset_reason: crate::ResetReason::Unknown,
         }
+    }
+
+    /// Set the reset reason every later announce carries (once, at boot).
+    pub fn set_reset_reason(&mut self, reason: crate::ResetReason) {
+        self.reset_reason = reason;
+    }
+
+    /// The reset reason the announces carry.
+    pub fn reset_reason(&self) -> crate::ResetReason {
+        self.reset_reason
     }
 
     /// This robot's id.
@@ -123,6 +135,7 @@ impl RobotSession {
             firmware,
             protocol_version: crate::PROTOCOL_VERSION,
             robot_nonce: self.robot_nonce,
+            reset_reason: self.reset_reason,
         });
         seal_as(&self.hello_key, self.robot_id, Stream::Hello, c, &msg, out)
     }

@@ -92,17 +92,19 @@ proptest! {
     /// The handshake carries announce and welcome fields exactly.
     #[test]
     fn handshake_round_trips_announce_and_welcome(
-        kind in robot_kind(), fw in firmware(), robot_nonce in any_nonce(), host_nonce in any_nonce()
+        kind in robot_kind(), fw in firmware(), robot_nonce in any_nonce(), host_nonce in any_nonce(),
+        reset_reason in prop::sample::select(ResetReason::ALL.to_vec())
     ) {
         let mut host = HostSession::new(ID, robot_key());
         let mut robot = RobotSession::new(ID, robot_key(), robot_nonce);
+        robot.set_reset_reason(reset_reason);
         let mut a = [0u8; MAX_DATAGRAM];
         let mut w = [0u8; MAX_DATAGRAM];
         let n = robot.announce(kind, fw, &mut a).expect("announce");
         let welcome_len = match host.receive(&a[..n], || host_nonce, &mut w) {
             Ok(HostReceived::Announce { announce, welcome_len, new_session }) => {
                 prop_assert_eq!(announce, Announce {
-                    kind, firmware: fw, protocol_version: PROTOCOL_VERSION, robot_nonce
+                    kind, firmware: fw, protocol_version: PROTOCOL_VERSION, robot_nonce, reset_reason
                 });
                 prop_assert!(new_session);
                 welcome_len

@@ -143,7 +143,7 @@ fn telemetry_with(small: bool) -> Telemetry {
 
 /// (shortest, longest) instance of every robot variant.
 fn robot_extremes() -> Vec<(RobotMsg, RobotMsg)> {
-    let announce = |n: u8| Announce {
+    let announce = |n: u8, reset_reason| Announce {
         kind: RobotKind::NonPilot,
         firmware: FirmwareVersion {
             major: n,
@@ -152,11 +152,13 @@ fn robot_extremes() -> Vec<(RobotMsg, RobotMsg)> {
         },
         protocol_version: n,
         robot_nonce: [n; 16],
+        reset_reason,
     };
+    let last_reason = ResetReason::ALL[ResetReason::ALL.len() - 1];
     vec![
         (
-            RobotMsg::Announce(announce(0)),
-            RobotMsg::Announce(announce(0xff)),
+            RobotMsg::Announce(announce(0, ResetReason::ALL[0])),
+            RobotMsg::Announce(announce(0xff, last_reason)),
         ),
         (
             RobotMsg::Telemetry(telemetry_with(true)),
@@ -261,6 +263,9 @@ fn datagram_size_budget() {
     assert_eq!(tele, 81);
     assert_eq!(largest, 81);
     assert_eq!(HEADER_LEN + TAG_LEN, 26, "envelope overhead");
+    let (lo, hi) = robot_bounds("Announce");
+    assert_eq!((lo, hi), (49, 49), "announce with its reset reason");
+    assert!(hi <= COMMAND_BUDGET, "announce {hi} B");
 }
 
 proptest! {
@@ -276,6 +281,20 @@ proptest! {
         let (lo, hi) = host_bounds(host_name(&m));
         let n = frame_len(&m);
         prop_assert!(lo <= n && n <= hi, "{} = {} not in {}..={}", host_name(&m), n, lo, hi);
+    }
+
+    /// Every reset reason fits the announce's bounds (one byte on the wire).
+    #[test]
+    fn any_reset_reason_stays_within_announce_bounds(i in 0..ResetReason::ALL.len()) {
+        let (lo, hi) = robot_bounds("Announce");
+        let n = frame_len(&RobotMsg::Announce(Announce {
+            kind: RobotKind::Pilot,
+            firmware: FirmwareVersion { major: 1, minor: 2, patch: 3 },
+            protocol_version: PROTOCOL_VERSION,
+            robot_nonce: [7; 16],
+            reset_reason: ResetReason::ALL[i],
+        }));
+        prop_assert!(lo <= n && n <= hi);
     }
 
     #[test]

@@ -28,8 +28,8 @@ use puzzlebot_protocol::pose::{MAX_POSE_DATAGRAM, POSE_HEADER_LEN};
 use puzzlebot_protocol::session::HostReceived;
 use puzzlebot_protocol::{
     open, peek_header, seal, Announce, Direction, FirmwareVersion, FleetKey, Header, HostMsg,
-    HostSession, Message, Nonce, ParamRejection, ParamSet, PiGains, RobotKey, RobotKind, RobotMsg,
-    RobotSession, SessionKey, Stream, Telemetry, HEADER_LEN, MAX_DATAGRAM, TAG_LEN,
+    HostSession, Message, Nonce, ParamRejection, ParamSet, PiGains, ResetReason, RobotKey, RobotKind,
+    RobotMsg, RobotSession, SessionKey, Stream, Telemetry, HEADER_LEN, MAX_DATAGRAM, TAG_LEN,
 };
 
 /// Robot id used by every harness.
@@ -105,8 +105,9 @@ pub fn robot_samples() -> Vec<RobotMsg> {
                 minor: 2,
                 patch: 3,
             },
-            protocol_version: 1,
+            protocol_version: 2,
             robot_nonce: [9; 16],
+            reset_reason: ResetReason::Panic,
         }),
         RobotMsg::Telemetry(Telemetry {
             uptime_ms: u32::MAX,

@@ -182,14 +182,22 @@ pub fn firmware() -> impl Strategy<Value = FirmwareVersion> {
 
 /// Any announce.
 pub fn announce() -> impl Strategy<Value = Announce> {
-    (robot_kind(), firmware(), any::<u8>(), any_nonce()).prop_map(
-        |(kind, firmware, protocol_version, robot_nonce)| Announce {
-            kind,
-            firmware,
-            protocol_version,
-            robot_nonce,
-        },
+    (
+        robot_kind(),
+        firmware(),
+        any::<u8>(),
+        any_nonce(),
+        prop::sample::select(ResetReason::ALL.to_vec()),
     )
+        .prop_map(
+            |(kind, firmware, protocol_version, robot_nonce, reset_reason)| Announce {
+                kind,
+                firmware,
+                protocol_version,
+                robot_nonce,
+                reset_reason,
+            },
+        )
 }
 
 /// Any telemetry with finite numbers.
