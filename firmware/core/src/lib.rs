@@ -54,6 +54,7 @@ pub mod estimator;
 pub mod model;
 pub mod pi;
 pub mod robot;
+pub mod safety;
 
 pub use drv8833::{Decay, HBridge, MotorCommand, MotorOutputs, PWM_FULL_SCALE};
 pub use encoder::{levels_of, Edge, Encoder, EncoderSnapshot, Step, EDGE_HISTORY};
@@ -61,4 +62,8 @@ pub use estimator::SpeedEstimator;
 pub use pi::{GainSchedule, WheelController};
 pub use robot::{
     check_config, ConfigError, DriveMode, LinkStats, NonceSource, Robot, Sensors, Status,
+};
+pub use safety::{
+    on_fault, reset_reason, Fault, FaultMark, HwReset, SafeOutputs, TickSupervisor, Watchdog,
+    FAULT_OUTPUTS, WATCHDOG_TIMEOUT_MS,
 };

@@ -20,8 +20,8 @@
 
 use puzzlebot_params::firmware::Firmware;
 use puzzlebot_protocol::{
-    flags, EncodeError, FirmwareVersion, HostMsg, Nonce, ParamRejection, Rejection, RobotId,
-    RobotKey, RobotKind, RobotMsg, RobotSession, Telemetry, MAX_DATAGRAM,
+    flags, EncodeError, FirmwareVersion, HostMsg, Nonce, ParamRejection, Rejection, ResetReason,
+    RobotId, RobotKey, RobotKind, RobotMsg, RobotSession, Telemetry, MAX_DATAGRAM,
 };
 
 use crate::drv8833::{Decay, HBridge, MotorCommand, MotorOutputs};
@@ -262,6 +262,14 @@ impl<N: NonceSource> Robot<N> {
             rssi_dbm: 0,
             stats: LinkStats::default(),
         })
+    }
+
+    /// Set why the processor last reset ([`crate::safety::reset_reason`]); every announce
+    /// of this boot carries it. Call once, right after [`Robot::new`].
+    pub fn set_reset_reason(&mut self, reason: ResetReason) {
+        if let Some(l) = self.link.as_mut() {
+            l.set_reset_reason(reason);
+        }
     }
 
     /// This robot's id.

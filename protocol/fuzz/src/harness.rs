@@ -28,8 +28,9 @@ use puzzlebot_protocol::pose::{MAX_POSE_DATAGRAM, POSE_HEADER_LEN};
 use puzzlebot_protocol::session::HostReceived;
 use puzzlebot_protocol::{
     open, peek_header, seal, Announce, Direction, FirmwareVersion, FleetKey, Header, HostMsg,
-    HostSession, Message, Nonce, ParamRejection, ParamSet, PiGains, ResetReason, RobotKey, RobotKind,
-    RobotMsg, RobotSession, SessionKey, Stream, Telemetry, HEADER_LEN, MAX_DATAGRAM, TAG_LEN,
+    HostSession, Message, Nonce, ParamRejection, ParamSet, PiGains, ResetReason, RobotKey,
+    RobotKind, RobotMsg, RobotSession, SessionKey, Stream, Telemetry, HEADER_LEN, MAX_DATAGRAM,
+    TAG_LEN,
 };
 
 /// Robot id used by every harness.
