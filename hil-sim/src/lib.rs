@@ -50,5 +50,5 @@ pub use math::Pose;
 pub use mechanics::LinkKind;
 pub use mocap::MocapConfig;
 pub use radio::Impairments;
-pub use scenario::{CouplingSpec, RobotSpec, Scenario, ScenarioError};
+pub use scenario::{CouplingSpec, PlantMismatch, RobotSpec, Scenario, ScenarioError};
 pub use world::{EventKind, GroundTruth, RobotTruth, SimEvent, World, WorldError, LIFT_APART};

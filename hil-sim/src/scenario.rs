@@ -30,7 +30,7 @@ use crate::mocap::MocapConfig;
 use crate::radio::Impairments;
 use puzzlebot_params::load::{from_toml_file, from_toml_str, LoadError};
 use puzzlebot_params::terrain::Terrain;
-use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_params::{FleetParams, RobotKind, RobotParams};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -52,6 +52,61 @@ pub struct RobotSpec {
     /// Start switched off (no firmware running until `set_online`).
     #[serde(default)]
     pub offline: bool,
+    /// How this robot's plant differs from the parameters everyone (the host too) believes.
+    #[serde(default)]
+    pub mismatch: PlantMismatch,
+}
+
+/// Host-model mismatch of one robot (DESIGN §6): factors on the believed parameters that the
+/// simulated plant runs with instead (1 = as believed), as real robots differ from their
+/// nominal parameter set.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlantMismatch {
+    /// Factor on the motor's torque / back-EMF constant `plant.motor_k` (motor gain).
+    pub motor_gain: f64,
+    /// Factor on the static friction `plant.friction_static` (the start-up dead-band).
+    pub dead_band: f64,
+    /// Factor on the wheel radius `geometry.wheel_radius`.
+    pub wheel_radius: f64,
+}
+
+impl PlantMismatch {
+    /// The plant is exactly as believed.
+    pub const NONE: PlantMismatch = PlantMismatch {
+        motor_gain: 1.0,
+        dead_band: 1.0,
+        wheel_radius: 1.0,
+    };
+
+    /// Check ranges (each factor within 0.5…2); the error names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        for (n, v) in [
+            ("motor_gain", self.motor_gain),
+            ("dead_band", self.dead_band),
+            ("wheel_radius", self.wheel_radius),
+        ] {
+            if !(v.is_finite() && (0.5..=2.0).contains(&v)) {
+                return Err(format!("{n}: must be within 0.5..=2, got {v}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// `believed` as this robot's plant really is.
+    pub fn apply(&self, believed: &RobotParams) -> RobotParams {
+        let mut p = believed.clone();
+        p.plant.motor_k = (f64::from(p.plant.motor_k) * self.motor_gain) as f32;
+        p.plant.friction_static = (f64::from(p.plant.friction_static) * self.dead_band) as f32;
+        p.geometry.wheel_radius = (f64::from(p.geometry.wheel_radius) * self.wheel_radius) as f32;
+        p
+    }
+}
+
+impl Default for PlantMismatch {
+    fn default() -> Self {
+        PlantMismatch::NONE
+    }
 }
 
 fn default_kind() -> RobotKind {
@@ -125,6 +180,7 @@ impl Scenario {
                 pose: [(i % 10) as f64 * 0.15, (i / 10) as f64 * 0.15, 0.0],
                 impairments: None,
                 offline: false,
+                mismatch: PlantMismatch::NONE,
             })
             .collect();
         Scenario {
@@ -165,6 +221,9 @@ impl Scenario {
                 imp.validate()
                     .map_err(|e| format!("robots[{i}].impairments.{e}"))?;
             }
+            r.mismatch
+                .validate()
+                .map_err(|e| format!("robots[{i}].mismatch.{e}"))?;
         }
         self.impairments
             .validate()

@@ -289,7 +289,7 @@ impl World {
         let mut mech = Mechanics::new(&geom, &scenario.params.non_pilot.coupling);
         let mut robots = Vec::with_capacity(scenario.robots.len());
         for spec in &scenario.robots {
-            let params = scenario.params.robot(spec.kind).clone();
+            let params = spec.mismatch.apply(scenario.params.robot(spec.kind));
             let model = DriveModel::new(spec.kind, &params.plant, &params.mass, &params.geometry);
             let drive = DriveState::at_rest(&model, f64::from(params.plant.battery_initial_soc));
             let tag = u64::from(spec.id) << 8;
@@ -383,6 +383,12 @@ impl World {
     /// Robot ids in scenario order.
     pub fn robot_ids(&self) -> Vec<RobotId> {
         self.robots.iter().map(|r| r.id).collect()
+    }
+
+    /// Every robot's ground-truth pose, in scenario order (cheaper than
+    /// [`World::ground_truth`] for frequent samples).
+    pub fn poses(&self) -> impl Iterator<Item = (RobotId, Pose)> + '_ {
+        self.robots.iter().map(|r| (r.id, r.pose))
     }
 
     fn index(&self, id: RobotId) -> Option<usize> {

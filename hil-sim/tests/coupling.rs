@@ -18,6 +18,7 @@ fn pair(gap: f64, dy: f64, coupled: bool) -> Scenario {
             pose: [0.0, 0.0, 0.0],
             impairments: None,
             offline: false,
+            mismatch: puzzlebot_sim::PlantMismatch::NONE,
         },
         RobotSpec {
             id: 2,
@@ -25,6 +26,7 @@ fn pair(gap: f64, dy: f64, coupled: bool) -> Scenario {
             pose: [0.05 + gap, dy, 0.0],
             impairments: None,
             offline: false,
+            mismatch: puzzlebot_sim::PlantMismatch::NONE,
         },
     ];
     if coupled {

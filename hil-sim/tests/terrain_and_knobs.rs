@@ -14,6 +14,7 @@ fn robot(id: u16, x: f64, y: f64) -> RobotSpec {
         pose: [x, y, 0.0],
         impairments: None,
         offline: false,
+        mismatch: puzzlebot_sim::PlantMismatch::NONE,
     }
 }
 

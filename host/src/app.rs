@@ -80,6 +80,7 @@ pub fn scenario_for(plans: &BTreeMap<RobotId, Trajectory>, seed: u64) -> Scenari
             pose: p.path.start_pose(),
             impairments: None,
             offline: false,
+            mismatch: puzzlebot_sim::PlantMismatch::NONE,
         })
         .collect();
     Scenario {

@@ -513,11 +513,13 @@ impl Controller for AssemblyController {
         }
         for e in &tick.events {
             if let EventKind::LiftKnobs { robots, pairs } = &e.kind {
-                tracing::warn!(
-                    "lift the knob pairs {pairs:?} among robots {robots:?} apart by hand and \
+                if self.log_milestones {
+                    tracing::warn!(
+                        "lift the knob pairs {pairs:?} among robots {robots:?} apart by hand and \
                      set the rows down a few centimetres apart (knobs hold more than the \
                      robots can pull, THESIS 5.5.3); the anchors are wiggled open after"
-                );
+                    );
+                }
                 self.hand.push(HandRequest::LiftKnobs {
                     robots: robots.clone(),
                 });
@@ -935,15 +937,39 @@ fn write_events(folder: &mut RunFolder, ctl: &AssemblyController) -> anyhow::Res
 
 /// A simulated fleet for an assembly scenario without a simulator file: `n` non-pilot robots
 /// (the first `pilots` ids are pilots) scattered deterministically from `seed` in a 0.6 m
-/// square around the origin, at least 0.12 m apart. Pilots after the first are set down as a
-/// lab would, in its lane: [`LANE_GAP`] apart behind it, facing the same way, a few
-/// millimetres and hundredths of a radian off (a lone pilot is not driven and moves straight
-/// only, THESIS 3.5.2 and 5.4.1; growing a shape takes two pilots so).
+/// square around the origin ([`scattered_fleet_in`]).
 pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Scenario {
+    scattered_fleet_in(n, pilots, seed, 0.3).expect("up to a dozen robots fit 0.6 m x 0.6 m")
+}
+
+/// `n` robots (the first `pilots` ids pilots) scattered deterministically from `seed` in the
+/// square of half side `half_side` (m) around the origin, centres at least
+/// [`MIN_START_SPACING`] apart. Pilots after the first are set down as a lab would, in its
+/// lane: [`LANE_GAP`] apart behind it, facing the same way, a few millimetres and hundredths
+/// of a radian off (a lone pilot is not driven and moves straight only, THESIS 3.5.2 and
+/// 5.4.1; growing a shape takes two pilots so). An error, before any robot exists, when the
+/// robots cannot all be placed so.
+pub fn scattered_fleet_in(
+    n: usize,
+    pilots: usize,
+    seed: u64,
+    half_side: f64,
+) -> anyhow::Result<puzzlebot_sim::Scenario> {
     use rand::{Rng, SeedableRng};
+    if !(half_side.is_finite() && half_side > 0.0) {
+        anyhow::bail!("start area: half side must be a positive number of metres, got {half_side}");
+    }
+    if pilots > n {
+        anyhow::bail!("{pilots} pilots among {n} robots");
+    }
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let mut poses: Vec<[f64; 3]> = Vec::new();
-    while poses.len() < n {
+    // Rejection sampling: a bounded number of draws per robot, then the area is too small.
+    let tries = 10_000 * n.max(1);
+    for _ in 0..tries {
+        if poses.len() == n {
+            break;
+        }
         let p = match poses.first() {
             Some(q) if poses.len() < pilots => {
                 let back = LANE_GAP * poses.len() as f64;
@@ -956,17 +982,24 @@ pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Sce
                 ]
             }
             _ => [
-                rng.random_range(-0.3..0.3),
-                rng.random_range(-0.3..0.3),
+                rng.random_range(-half_side..half_side),
+                rng.random_range(-half_side..half_side),
                 rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
             ],
         };
         if poses
             .iter()
-            .all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) > 0.12)
+            .all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) > MIN_START_SPACING)
         {
             poses.push(p);
         }
+    }
+    if poses.len() < n {
+        anyhow::bail!(
+            "{n} robots do not fit a {:.2} m square {MIN_START_SPACING} m apart (placed {})",
+            2.0 * half_side,
+            poses.len()
+        );
     }
     let robots = poses
         .into_iter()
@@ -981,14 +1014,18 @@ pub fn scattered_fleet(n: usize, pilots: usize, seed: u64) -> puzzlebot_sim::Sce
             pose,
             impairments: None,
             offline: false,
+            mismatch: puzzlebot_sim::PlantMismatch::NONE,
         })
         .collect();
-    puzzlebot_sim::Scenario {
+    Ok(puzzlebot_sim::Scenario {
         seed,
         robots,
         ..puzzlebot_sim::Scenario::default()
-    }
+    })
 }
+
+/// Least distance between robot centres at the start of a scattered fleet (m).
+pub const MIN_START_SPACING: f64 = 0.12;
 
 /// Distance between pilots set down in one lane by [`scattered_fleet`] (m): room for a
 /// non-pilot's staged approach to the back one's front (its place, stand-off and route

@@ -674,6 +674,7 @@ pub async fn run_cli(
                     pose: [0.0, 0.0, 0.0],
                     impairments: None,
                     offline: false,
+                    mismatch: puzzlebot_sim::PlantMismatch::NONE,
                 }],
                 ..puzzlebot_sim::Scenario::default()
             };

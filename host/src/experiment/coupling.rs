@@ -94,6 +94,7 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
                 pose: [-(length + dx), dy, yaw0],
                 impairments: None,
                 offline: false,
+                mismatch: puzzlebot_sim::PlantMismatch::NONE,
             },
             RobotSpec {
                 id: 2,
@@ -101,6 +102,7 @@ pub fn run_once(dx: f64, dy: f64, run: usize, seed: u64) -> anyhow::Result<Coupl
                 pose: [0.0, 0.0, 0.0],
                 impairments: None,
                 offline: false,
+                mismatch: puzzlebot_sim::PlantMismatch::NONE,
             },
         ],
         params: params.clone(),

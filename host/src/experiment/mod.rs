@@ -1,0 +1,10 @@
+//! Experiments run in the lockstep simulator: THESIS 5.2.3's coupling experiment
+//! ([`coupling`]) and randomized assembly episodes ([`assemblies`]: the measure of whether
+//! assemblies form, move and dissolve from any start).
+
+pub mod assemblies;
+pub mod coupling;
+pub mod episode;
+pub mod verdict;
+
+pub use coupling::*;
