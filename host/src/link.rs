@@ -517,7 +517,12 @@ fn handle(
                 welcome_len,
                 new_session,
             }) => {
-                let Announce { kind, firmware, .. } = announce;
+                let Announce {
+                    kind,
+                    firmware,
+                    reset_reason,
+                    ..
+                } = announce;
                 if r.kind.is_none() {
                     tracing::info!(robot = id, ?kind, %src, "robot discovered");
                     events.push(LinkEventKind::Discovered { kind });
@@ -530,7 +535,14 @@ fn handle(
                 if new_session {
                     r.stats.sessions += 1;
                     r.last_counter = None;
-                    tracing::info!(robot = id, "session offered");
+                    if reset_reason.is_fault() {
+                        tracing::warn!(
+                            robot = id,
+                            reset = reset_reason.name(),
+                            "robot announces after a fault reset"
+                        );
+                    }
+                    tracing::info!(robot = id, reset = reset_reason.name(), "session offered");
                     events.push(LinkEventKind::SessionOffered);
                 }
                 Some((out[..welcome_len].to_vec(), src))
