@@ -11,6 +11,7 @@
 //! * [`fleet`]: [`SimFleet`], the world in its own thread with one UDP socket per robot on
 //!   127.0.0.1 and the pose stream, for the host and end-to-end tests.
 //! * [`scenario`]: TOML scenario files.
+//! * [`watchdog`]: the firmware's watchdog and fault path on a simulated robot.
 //!
 //! ```no_run
 //! use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
@@ -43,6 +44,7 @@ pub mod mocap;
 pub mod radio;
 pub mod rng;
 pub mod scenario;
+pub mod watchdog;
 pub mod world;
 
 pub use fleet::{FleetError, Pace, SimFleet, SimOptions};

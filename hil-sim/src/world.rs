@@ -17,12 +17,13 @@ use crate::mocap::{Mocap, MocapFrame};
 use crate::radio::{Channel, Impairments};
 use crate::rng::Rng;
 use crate::scenario::Scenario;
+use crate::watchdog::Supervision;
 use puzzlebot_firmware_core::{
     DriveMode, Encoder, HBridge, MotorOutputs, NonceSource, Robot, Sensors, Status,
 };
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{RobotKind, RobotParams};
-use puzzlebot_protocol::{FirmwareVersion, FleetKey, Nonce, RobotId, MAX_DATAGRAM};
+use puzzlebot_protocol::{FirmwareVersion, FleetKey, Nonce, ResetReason, RobotId, MAX_DATAGRAM};
 use std::collections::{BTreeMap, VecDeque};
 
 /// Firmware version the simulated robots announce.
@@ -216,6 +217,8 @@ struct SimRobot {
     impairments: Impairments,
     fallen: bool,
     next_tick_us: u64,
+    /// Control-task health: stall switch, tick supervisor, watchdog.
+    supervision: Supervision,
     support_points: Vec<V2>,
     /// sin, cos of `pose.yaw`, advanced incrementally (exactly refreshed when the yaw
     /// jumps and every [`TRIG_REFRESH`] steps).
@@ -319,13 +322,17 @@ impl World {
                 impairments: spec.impairments.unwrap_or(scenario.impairments),
                 fallen: false,
                 next_tick_us: 0,
+                // Set up with the loop period by `boot`.
+                supervision: Supervision::new(0),
                 trig: trig_of(pose.yaw),
                 trig_age: 0,
             };
             if !spec.offline {
-                boot(&mut r, key, 0).map_err(|reason| WorldError::Firmware {
-                    id: spec.id,
-                    reason,
+                boot(&mut r, key, 0, ResetReason::PowerOn).map_err(|reason| {
+                    WorldError::Firmware {
+                        id: spec.id,
+                        reason,
+                    }
                 })?;
             }
             robots.push(r);
@@ -507,13 +514,17 @@ impl World {
                     // Rejections are counted by the firmware itself (LinkStats).
                     let _ = fw.on_datagram(frame, t1);
                 });
-                if t1 >= r.next_tick_us {
+                if t1 >= r.next_tick_us && r.supervision.is_stalled() {
+                    // A stalled control task: no tick, the PWM keeps its last duties.
+                    r.next_tick_us = t1 + fw.period_us();
+                } else if t1 >= r.next_tick_us {
                     let sensors = Sensors {
                         battery_mv: (r.drive.battery_v * 1000.0).clamp(0.0, 65_535.0) as u16,
                         rssi_dbm: -45,
                         encoders: [r.enc[0].snapshot(), r.enc[1].snapshot()],
                     };
                     r.outputs = fw.tick(t1, &sensors);
+                    r.supervision.after_tick(t1);
                     r.next_tick_us = t1 + fw.period_us();
                     while let Some(n) = fw.poll_transmit(t1, &mut buf) {
                         r.up.send(t1, &buf[..n], &r.impairments);
@@ -521,6 +532,16 @@ impl World {
                 }
             } else {
                 r.down.clear();
+            }
+            if let Some(reason) = r.supervision.check(t1, &mut r.outputs) {
+                r.down.clear();
+                if boot(r, &self.key, t1, reason).is_ok() {
+                    let kind = EventKind::Booted {
+                        id: r.id,
+                        boot: r.boots,
+                    };
+                    self.events.push(SimEvent { t_us: t1, kind });
+                }
             }
             let id = r.id;
             let outbox = &mut self.outbox;
@@ -735,7 +756,7 @@ impl World {
                     kind: EventKind::Offline { id },
                 });
             }
-            (true, false) if boot(r, &key, now).is_ok() => {
+            (true, false) if boot(r, &key, now, ResetReason::PowerOn).is_ok() => {
                 self.events.push(SimEvent {
                     t_us: now,
                     kind: EventKind::Booted { id, boot: r.boots },
@@ -744,6 +765,26 @@ impl World {
             _ => {}
         }
         true
+    }
+
+    /// Make robot `id`'s control task stall (a hang): its firmware stops ticking and its
+    /// motors keep their last duties until its watchdog resets it ([`crate::watchdog`]).
+    /// Returns false for an unknown or offline robot.
+    pub fn stall_control(&mut self, id: RobotId) -> bool {
+        let Some(i) = self.index(id) else {
+            return false;
+        };
+        let r = &mut self.robots[i];
+        if r.fw.is_none() {
+            return false;
+        }
+        r.supervision.set_stalled(true);
+        true
+    }
+
+    /// Watchdog resets of robot `id` so far (None for an unknown id).
+    pub fn watchdog_resets(&self, id: RobotId) -> Option<u32> {
+        self.index(id).map(|i| self.robots[i].supervision.resets())
     }
 
     /// Change robot `id`'s link impairments. Returns false for an unknown id.
@@ -922,10 +963,11 @@ impl World {
     }
 }
 
-/// (Re)boot the firmware of `r` at `now_us` with a fresh nonce from its stream.
-fn boot(r: &mut SimRobot, key: &FleetKey, now_us: u64) -> Result<(), String> {
+/// (Re)boot the firmware of `r` at `now_us` with a fresh nonce from its stream; its
+/// announces carry `reason`.
+fn boot(r: &mut SimRobot, key: &FleetKey, now_us: u64, reason: ResetReason) -> Result<(), String> {
     let nonces = SimNonces(Rng::new(r.nonces.next_u64(), u64::from(r.boots)));
-    let fw = Robot::new(
+    let mut fw = Robot::new(
         r.id,
         r.kind,
         Some(key.robot_key(r.id)),
@@ -934,6 +976,8 @@ fn boot(r: &mut SimRobot, key: &FleetKey, now_us: u64) -> Result<(), String> {
         nonces,
     )
     .map_err(|e| e.to_string())?;
+    fw.set_reset_reason(reason);
+    r.supervision.rebooted(fw.period_us());
     r.boots += 1;
     r.next_tick_us = now_us + fw.period_us();
     r.fw = Some(Box::new(fw));
