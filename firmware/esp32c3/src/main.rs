@@ -1,12 +1,16 @@
 //! PuzzleBot firmware image for the Seeed XIAO ESP32-C3: glue between the hardware and
 //! `puzzlebot-firmware-core` (DESIGN.md §5). Everything the robot *does* lives in the core;
 //! this crate wires pins ([`pins`]), the encoder interrupts ([`encoders`]), the PWM
-//! ([`motors`]), the battery ADC ([`battery`]), Wi-Fi and UDP to it.
+//! ([`motors`]), the battery ADC ([`battery`]), Wi-Fi and UDP to it, and runs the fault
+//! path ([`fault`]: safe pins, panic hooks, watchdogs, reset reason) and the status LED
+//! ([`led`]).
 #![no_std]
 #![no_main]
 
 mod battery;
 mod encoders;
+mod fault;
+mod led;
 mod motors;
 mod pins;
 mod provision;
@@ -15,19 +19,22 @@ use core::net::SocketAddrV4;
 use core::sync::atomic::{AtomicI32, Ordering};
 
 use embassy_executor::Spawner;
+use embassy_futures::poll_once;
 use embassy_futures::select::{select, Either};
 use embassy_net::udp::{PacketMetadata, UdpSocket};
 use embassy_net::{IpEndpoint, Runner, Stack, StackResources};
-use embassy_time::{with_timeout, Duration, Ticker, Timer};
+use embassy_time::{Duration, Ticker, Timer};
 use esp_backtrace as _;
-use esp_hal::gpio::Io;
+use esp_hal::gpio::{Io, Output};
 use esp_hal::rng::Rng;
 use esp_hal::timer::timg::TimerGroup;
 use esp_radio::wifi::sta::StationConfig;
 use esp_radio::wifi::{
     AuthenticationMethodConfig, Config, ControllerConfig, Interface, PowerSaveMode, WifiController,
 };
-use puzzlebot_firmware_core::{NonceSource, Robot, Sensors};
+use fault::FaultPins;
+use led::BlinkCode;
+use puzzlebot_firmware_core::{NonceSource, Robot, SafeOutputs, Sensors, TickSupervisor};
 use puzzlebot_params::firmware::Firmware;
 use puzzlebot_protocol::{FirmwareVersion, Nonce, DEFAULT_ROBOT_PORT, MAX_DATAGRAM};
 use static_cell::StaticCell;
@@ -74,26 +81,32 @@ struct Net {
 
 #[esp_rtos::main]
 async fn main(spawner: Spawner) -> ! {
+    // The very first thing after reset: motor pins to the fault state (coast), before
+    // clocks, heap or logging; the board's pull-downs held them there until now.
+    FaultPins.make_safe();
     esp_println::logger::init_logger(log::LevelFilter::Info);
     let config = esp_hal::Config::default().with_cpu_clock(esp_hal::clock::CpuClock::max());
     let peripherals = esp_hal::init(config);
-    // Wi-Fi needs a heap: the reclaimed bootloader RAM (64 KiB) plus 32 KiB.
+    // `init` disables every watchdog: the RTC one guards the rest of the boot.
+    let mut watchdogs = fault::Watchdogs::start_boot(peripherals.RTC_TIMER);
+    let reset_reason = fault::boot_reset_reason();
+    // Wi-Fi's heap, as esp-radio's examples size it: the reclaimed bootloader RAM (64 KiB)
+    // plus 36 KiB.
     esp_alloc::heap_allocator!(#[esp_hal::ram(reclaimed)] size: 64 * 1024);
-    esp_alloc::heap_allocator!(size: 32 * 1024);
+    esp_alloc::heap_allocator!(size: 36 * 1024);
 
     let timg0 = TimerGroup::new(peripherals.TIMG0);
     esp_rtos::start(timg0.timer0, peripherals.FROM_CPU_INTR0);
 
     let board = take_board!(peripherals);
+    let mut led = Some(led::new(board.led));
     let mut io = Io::new(peripherals.IO_MUX);
     encoders::start(&mut io, board.encoder);
     let motors = match motors::Motors::new(peripherals.LEDC, board.motor) {
         Ok(m) => m,
         Err(e) => {
-            log::error!("PWM set-up failed: {e}; halting with motors undriven");
-            loop {
-                Timer::after(Duration::from_secs(3600)).await;
-            }
+            log::error!("PWM set-up failed: {e}; halted, motors coasting");
+            halt(&mut watchdogs, led.as_mut()).await
         }
     };
     let battery = battery::Battery::new(peripherals.ADC1, board.battery);
@@ -105,52 +118,103 @@ async fn main(spawner: Spawner) -> ! {
     let prov = core::hint::black_box(provision::from_build_env());
     let (id, key, net) = match prov {
         Err(why) => {
-            log::warn!("unprovisioned build ({why}): the robot will never drive");
+            let code = match why {
+                provision::ProvisionError::Missing(_) => BlinkCode::Unprovisioned,
+                provision::ProvisionError::Invalid(_) => BlinkCode::BadProvisioning,
+            };
+            log::warn!("not provisioned ({why}): the robot will never drive");
+            blink(&spawner, &mut led, code);
             (provision::UNPROVISIONED_ID, None, None)
         }
-        Ok(p) => {
-            let net = start_wifi(&spawner, peripherals.WIFI, &p, rng);
-            (p.id, Some(p.key), net)
-        }
+        Ok(p) => match start_wifi(&spawner, peripherals.WIFI, &p, rng) {
+            Ok(net) => (p.id, Some(p.key), Some(net)),
+            Err(code) => {
+                // The reason is logged where it happened; the robot stays silent, coasting.
+                blink(&spawner, &mut led, code);
+                (p.id, Some(p.key), None)
+            }
+        },
     };
-    let robot = match Robot::new(id, kind, key, Firmware::default(), VERSION, HwNonces(rng)) {
+    let mut robot = match Robot::new(id, kind, key, Firmware::default(), VERSION, HwNonces(rng)) {
         Ok(r) => r,
         Err(e) => {
-            log::error!("invalid firmware parameters: {e}");
-            loop {
-                Timer::after(Duration::from_secs(3600)).await;
-            }
+            log::error!("invalid firmware parameters: {e}; halted, motors coasting");
+            halt(&mut watchdogs, led.as_mut()).await
         }
     };
-    log::info!("PuzzleBot {id} ({kind:?}) firmware {VERSION:?} running");
-    control_loop(robot, motors, battery, net).await
+    robot.set_reset_reason(reset_reason);
+    if reset_reason.is_fault() {
+        log::warn!("reset after a fault: {}", reset_reason.name());
+    }
+    log::info!(
+        "PuzzleBot {id} ({kind:?}) firmware {VERSION:?} running (reset: {})",
+        reset_reason.name()
+    );
+    watchdogs.start_main(peripherals.TIMG1);
+    control_loop(robot, motors, battery, net, watchdogs).await
 }
 
-/// Start Wi-Fi (station, power save off, reconnecting forever) and the IP stack.
+/// A permanent halt: motors at the fault state, watchdogs off (resetting would not help),
+/// the LED flashing [`BlinkCode::Halted`].
+async fn halt(watchdogs: &mut fault::Watchdogs, led: Option<&mut Output<'static>>) -> ! {
+    FaultPins.make_safe();
+    watchdogs.stop();
+    match led {
+        Some(l) => led::blink_forever(l, BlinkCode::Halted).await,
+        None => loop {
+            Timer::after(Duration::from_secs(3600)).await;
+        },
+    }
+}
+
+/// Hand the LED to a task flashing `code`.
+fn blink(spawner: &Spawner, led: &mut Option<Output<'static>>, code: BlinkCode) {
+    if let Some(l) = led.take() {
+        match led::blink_task(l, code) {
+            Ok(t) => spawner.spawn(t),
+            Err(e) => log::error!("LED task: {e:?}"),
+        }
+    }
+}
+
+/// Start Wi-Fi (station, power save off, reconnecting forever) and the IP stack; on
+/// failure the reason is logged and its blink code returned.
 fn start_wifi(
     spawner: &Spawner,
     wifi: esp_hal::peripherals::WIFI<'static>,
     p: &provision::Provision,
     rng: Rng,
-) -> Option<Net> {
+) -> Result<Net, BlinkCode> {
     let auth = if p.password.is_empty() {
         AuthenticationMethodConfig::Open
     } else {
-        AuthenticationMethodConfig::WpaWpa2Personal(p.password.try_into().ok()?)
+        let pw = p.password.try_into().map_err(|_| {
+            log::error!(
+                "Wi-Fi not started: password of {} bytes is too long",
+                p.password.len()
+            );
+            BlinkCode::WifiCredentials
+        })?;
+        AuthenticationMethodConfig::WpaWpa2Personal(pw)
     };
+    let ssid = p.ssid.try_into().map_err(|_| {
+        log::error!(
+            "Wi-Fi not started: SSID of {} bytes is too long",
+            p.ssid.len()
+        );
+        BlinkCode::WifiCredentials
+    })?;
     let station = StationConfig::default()
-        .with_ssid(p.ssid.try_into().ok()?)
+        .with_ssid(ssid)
         .with_authentication(auth);
-    let mut controller = match WifiController::new(
+    let mut controller = WifiController::new(
         wifi,
         ControllerConfig::default().with_initial_config(Config::Station(station)),
-    ) {
-        Ok(c) => c,
-        Err(e) => {
-            log::error!("Wi-Fi start failed: {e:?}");
-            return None;
-        }
-    };
+    )
+    .map_err(|e| {
+        log::error!("Wi-Fi not started: driver error {e:?}");
+        BlinkCode::WifiStart
+    })?;
     // Modem sleep adds hundreds of ms of latency (DESIGN.md §5).
     if let Err(e) = controller.set_power_saving(PowerSaveMode::None) {
         log::warn!("could not disable Wi-Fi power save: {e:?}");
@@ -163,9 +227,13 @@ fn start_wifi(
         RESOURCES.init(StackResources::new()),
         seed,
     );
-    spawner.spawn(wifi_task(controller).ok()?);
-    spawner.spawn(net_task(runner).ok()?);
-    Some(Net {
+    let spawn_failed = |what: &str, e: embassy_executor::SpawnError| {
+        log::error!("Wi-Fi not started: {what} task: {e:?}");
+        BlinkCode::NetTask
+    };
+    spawner.spawn(wifi_task(controller).map_err(|e| spawn_failed("Wi-Fi", e))?);
+    spawner.spawn(net_task(runner).map_err(|e| spawn_failed("network", e))?);
+    Ok(Net {
         stack,
         host: endpoint(p.host),
     })
@@ -218,13 +286,59 @@ async fn receive(socket: Option<&mut UdpSocket<'_>>, buf: &mut [u8]) -> Option<u
     }
 }
 
-/// The 50 Hz loop: tick the core with encoder snapshots, battery and RSSI, drive the PWM;
-/// feed received datagrams to the core; send what the core wants to send.
+/// The newest datagram the socket could not take yet. Latest wins: a newer datagram
+/// replaces it, so nothing stale is ever sent after something fresher, and nothing waits.
+struct Outbox {
+    buf: [u8; MAX_DATAGRAM],
+    len: usize,
+    replaced: u32,
+}
+
+impl Outbox {
+    /// Hand `frame` to the socket now if it has room, else keep it (replacing an older one).
+    fn send(&mut self, s: &mut UdpSocket<'_>, host: IpEndpoint, frame: &[u8]) {
+        self.flush(s, host);
+        if self.len != 0 {
+            self.replaced = self.replaced.wrapping_add(1);
+            self.keep(frame);
+        } else if !try_send(s, host, frame) {
+            self.keep(frame);
+        }
+    }
+
+    /// Send the kept datagram if the socket has room now.
+    fn flush(&mut self, s: &mut UdpSocket<'_>, host: IpEndpoint) {
+        if self.len != 0 && try_send(s, host, &self.buf[..self.len]) {
+            self.len = 0;
+        }
+    }
+
+    fn keep(&mut self, frame: &[u8]) {
+        let n = frame.len().min(MAX_DATAGRAM);
+        self.buf[..n].copy_from_slice(&frame[..n]);
+        self.len = n;
+    }
+}
+
+/// Queue `frame` without waiting: true when the socket took it (or refused it for good,
+/// e.g. no route yet), false when its buffer is full.
+fn try_send(s: &mut UdpSocket<'_>, host: IpEndpoint, frame: &[u8]) -> bool {
+    if !s.may_send() {
+        return false;
+    }
+    poll_once(s.send_to(frame, host)).is_ready()
+}
+
+/// The 50 Hz loop: tick the core with encoder snapshots, battery and RSSI, drive the PWM,
+/// feed the watchdogs after a healthy tick; feed received datagrams to the core; send
+/// what the core wants to send (latest wins). No step waits: the ADC read is bounded, the
+/// socket is only polled.
 async fn control_loop<N: NonceSource>(
     mut robot: Robot<N>,
     motors: motors::Motors,
     mut battery: battery::Battery,
     net: Option<Net>,
+    mut watchdogs: fault::Watchdogs,
 ) -> ! {
     let mut rx_meta = [PacketMetadata::EMPTY; 4];
     let mut tx_meta = [PacketMetadata::EMPTY; 4];
@@ -245,9 +359,15 @@ async fn control_loop<N: NonceSource>(
         }
     }
     let host = net.as_ref().map(|n| n.host);
+    let mut supervisor = TickSupervisor::new(robot.period_us());
     let mut ticker = Ticker::every(Duration::from_micros(robot.period_us()));
     let mut rx = [0u8; MAX_DATAGRAM + 1];
     let mut tx = [0u8; MAX_DATAGRAM];
+    let mut outbox = Outbox {
+        buf: [0; MAX_DATAGRAM],
+        len: 0,
+        replaced: 0,
+    };
     loop {
         match select(ticker.next(), receive(socket.as_mut(), &mut rx)).await {
             Either::First(()) => {
@@ -256,8 +376,10 @@ async fn control_loop<N: NonceSource>(
                     rssi_dbm: RSSI_DBM.load(Ordering::Relaxed).clamp(-128, 127) as i8,
                     encoders: encoders::snapshot(),
                 };
-                let out = robot.tick(encoders::now_us(), &sensors);
+                let now = encoders::now_us();
+                let out = robot.tick(now, &sensors);
                 motors.apply(&out);
+                supervisor.on_tick(now, &mut watchdogs);
             }
             Either::Second(Some(n)) => {
                 // Oversized datagrams arrive truncated to MAX_DATAGRAM + 1 and are rejected.
@@ -265,12 +387,12 @@ async fn control_loop<N: NonceSource>(
             }
             Either::Second(None) => {}
         }
+        let (Some(s), Some(h)) = (socket.as_mut(), host) else {
+            continue;
+        };
+        outbox.flush(s, h);
         while let Some(n) = robot.poll_transmit(encoders::now_us(), &mut tx) {
-            if let (Some(s), Some(h)) = (socket.as_mut(), host) {
-                // Latest wins: a datagram that cannot be sent soon is dropped, not queued,
-                // and never holds up the control loop for more than 2 ms.
-                let _ = with_timeout(Duration::from_millis(2), s.send_to(&tx[..n], h)).await;
-            }
+            outbox.send(s, h, &tx[..n]);
         }
     }
 }

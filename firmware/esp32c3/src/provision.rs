@@ -40,22 +40,42 @@ pub fn kind() -> RobotKind {
     }
 }
 
-/// The provisioning of this build, or the name of the first missing/invalid variable.
-pub fn from_build_env() -> Result<Provision, &'static str> {
+/// Why a build is not provisioned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProvisionError {
+    /// A required variable is unset (a CI or bare build).
+    Missing(&'static str),
+    /// A variable is set but invalid (a bad provisioning record).
+    Invalid(&'static str),
+}
+
+impl core::fmt::Display for ProvisionError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ProvisionError::Missing(v) => write!(f, "{v} unset"),
+            ProvisionError::Invalid(why) => f.write_str(why),
+        }
+    }
+}
+
+/// The provisioning of this build, or the first missing/invalid variable.
+pub fn from_build_env() -> Result<Provision, ProvisionError> {
+    use ProvisionError::{Invalid, Missing};
     let ssid = option_env!("PUZZLEBOT_WIFI_SSID")
         .filter(|s| !s.is_empty())
-        .ok_or("PUZZLEBOT_WIFI_SSID unset")?;
+        .ok_or(Missing("PUZZLEBOT_WIFI_SSID"))?;
     let password = option_env!("PUZZLEBOT_WIFI_PASSWORD").unwrap_or("");
     let id = option_env!("PUZZLEBOT_ROBOT_ID")
-        .ok_or("PUZZLEBOT_ROBOT_ID unset")?
+        .ok_or(Missing("PUZZLEBOT_ROBOT_ID"))?
         .trim()
         .parse::<RobotId>()
-        .map_err(|_| "PUZZLEBOT_ROBOT_ID is not a number 0..=65535")?;
-    let key =
-        RobotKey::from_hex(option_env!("PUZZLEBOT_ROBOT_KEY").ok_or("PUZZLEBOT_ROBOT_KEY unset")?)
-            .ok_or("PUZZLEBOT_ROBOT_KEY is not 64 hex digits")?;
-    let host = parse_host(option_env!("PUZZLEBOT_HOST").ok_or("PUZZLEBOT_HOST unset")?)
-        .ok_or("PUZZLEBOT_HOST is not a.b.c.d[:port]")?;
+        .map_err(|_| Invalid("PUZZLEBOT_ROBOT_ID is not a number 0..=65535"))?;
+    let key = RobotKey::from_hex(
+        option_env!("PUZZLEBOT_ROBOT_KEY").ok_or(Missing("PUZZLEBOT_ROBOT_KEY"))?,
+    )
+    .ok_or(Invalid("PUZZLEBOT_ROBOT_KEY is not 64 hex digits"))?;
+    let host = parse_host(option_env!("PUZZLEBOT_HOST").ok_or(Missing("PUZZLEBOT_HOST"))?)
+        .ok_or(Invalid("PUZZLEBOT_HOST is not a.b.c.d[:port]"))?;
     Ok(Provision {
         ssid,
         password,
