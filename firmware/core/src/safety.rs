@@ -188,17 +188,25 @@ pub enum HwReset {
 }
 
 /// Why the robot booted, from the hardware's reset cause and the mark kept across the
-/// reset. After power-on the mark is ignored (the memory holds garbage then).
+/// reset. After power-on and brown-out the mark is ignored (the memory holds garbage, or
+/// the supply, not the software, failed); after a software or watchdog reset a mark wins
+/// (a panic whose report outlasted the watchdog is still a panic).
 pub fn reset_reason(hw: Option<HwReset>, mark: FaultMark) -> ResetReason {
+    let marked = |f| match f {
+        Fault::Panic => ResetReason::Panic,
+        Fault::Hang => ResetReason::Hang,
+    };
     match (hw, mark.fault()) {
         (Some(HwReset::PowerOn), _) => ResetReason::PowerOn,
         (Some(HwReset::BrownOut), _) => ResetReason::BrownOut,
-        (Some(HwReset::MainWatchdog), _) => ResetReason::Hang,
-        (Some(HwReset::RtcWatchdog), _) => ResetReason::BootHang,
-        (Some(HwReset::Software) | None, Some(Fault::Panic)) => ResetReason::Panic,
-        (Some(HwReset::Software) | None, Some(Fault::Hang)) => ResetReason::Hang,
-        (Some(HwReset::Software), None) => ResetReason::Software,
         (Some(HwReset::Other), _) => ResetReason::Other,
+        (
+            Some(HwReset::Software | HwReset::MainWatchdog | HwReset::RtcWatchdog) | None,
+            Some(f),
+        ) => marked(f),
+        (Some(HwReset::MainWatchdog), None) => ResetReason::Hang,
+        (Some(HwReset::RtcWatchdog), None) => ResetReason::BootHang,
+        (Some(HwReset::Software), None) => ResetReason::Software,
         (None, None) => ResetReason::Unknown,
     }
 }
@@ -279,7 +287,9 @@ mod tests {
             (Some(H::Software), none, R::Software),
             (Some(H::MainWatchdog), none, R::Hang),
             (Some(H::RtcWatchdog), none, R::BootHang),
-            (Some(H::RtcWatchdog), panic, R::BootHang),
+            (Some(H::RtcWatchdog), panic, R::Panic),
+            (Some(H::MainWatchdog), panic, R::Panic),
+            (Some(H::MainWatchdog), hang, R::Hang),
             (Some(H::BrownOut), panic, R::BrownOut),
             (Some(H::Other), none, R::Other),
             (None, panic, R::Panic),
