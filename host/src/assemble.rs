@@ -492,6 +492,11 @@ impl Controller for AssemblyController {
             .collect();
         self.seen.extend(states.iter().map(|s| s.id));
         let tick = self.runner.tick(t, &states);
+        if tracing::enabled!(target: "puzzlebot::roles", tracing::Level::TRACE) {
+            for task in &tick.tasks {
+                tracing::trace!(target: "puzzlebot::roles", t = format!("{t:.1}"), ?task, active = ?tick.active);
+            }
+        }
         // Progress on the console: steps, couplings, formation, lost robots.
         for e in &tick.events {
             let milestone = match &e.kind {

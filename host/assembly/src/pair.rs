@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 /// Status of one connection pair (THESIS Algorithm 8; `Connected` = moved to C_conn once the
 /// insertion has held for [`PairTolerances::confirm_s`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PairStatus {
     /// Not coupled; the head is not at the opening / hole.
@@ -260,6 +260,38 @@ impl TrackedPair {
     /// Augmented (head) point of robot `a` in its body frame: anchor head or knob tip.
     pub fn head_a(&self, g: &Geometry) -> [f64; 2] {
         self.pair.point_a.head(g)
+    }
+
+    /// The pair is known to be coupled by other means than its seat (a tug it did not come
+    /// apart under): if its last measurement is inside the held envelope (with the
+    /// hysteresis), it goes straight to connected. Returns the transitions made.
+    pub fn confirm_held(&mut self, t: f64, g: &Geometry, tol: &PairTolerances) -> Vec<Transition> {
+        let Some(m) = self.last else {
+            return Vec::new();
+        };
+        if self.status == PairStatus::Connected
+            || !is_held(self.pair.kind, &m, tol, g, tol.hysteresis.max(1.0))
+        {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        for to in [
+            PairStatus::HeadAligned,
+            PairStatus::HeadInserted,
+            PairStatus::Connected,
+        ] {
+            if to > self.status {
+                out.push(Transition {
+                    t,
+                    from: self.status,
+                    to,
+                });
+                self.status = to;
+            }
+        }
+        self.since = t;
+        self.seated_history = 0;
+        out
     }
 
     /// THESIS Algorithm 8 for one pair, with hysteresis: returns the transitions made

@@ -207,6 +207,24 @@ fn slot_neighbours(plan: &puzzlebot_assembly::Plan) -> BTreeSet<(RobotId, RobotI
     out
 }
 
+/// One robot's ground truth at one sample of a replayed episode (`telemetry.jsonl`).
+#[derive(Debug, Serialize)]
+struct Sample {
+    /// Controller time (s).
+    t: f64,
+    robot: RobotId,
+    /// [x m, y m, yaw rad].
+    truth: [f64; 3],
+    /// Forward speed (m/s).
+    v: f64,
+    /// Turn rate (rad/s).
+    omega: f64,
+    /// Wheel speeds (RPM).
+    wheel_rpm: [f64; 2],
+    /// Motor duty (per mille).
+    duty: [i16; 2],
+}
+
 /// Ground truth sampled during a run.
 #[derive(Default)]
 struct Samples {
@@ -295,16 +313,26 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
         seen_events: 0,
     };
     let mut samples = Samples::default();
-    let mut traces: BTreeMap<RobotId, Vec<(f64, f64, f64)>> = BTreeMap::new();
+    let mut traces: BTreeMap<RobotId, Vec<Sample>> = BTreeMap::new();
     let record = folder.is_some();
     let run = ls.run(&mut ctl, ep.run_limit_s(), |w, t| {
         samples.take(w, t);
-        if record {
-            for (id, p) in w.poses() {
-                let tr = traces.entry(id).or_default();
-                if tr.last().is_none_or(|l| t - l.0 >= 0.1) {
-                    tr.push((t, p.x, p.y));
-                }
+        if record
+            && traces
+                .values()
+                .next()
+                .is_none_or(|tr| tr.last().is_none_or(|l| t - l.t >= 0.1))
+        {
+            for r in w.ground_truth().robots {
+                traces.entry(r.id).or_default().push(Sample {
+                    t,
+                    robot: r.id,
+                    truth: [r.pose.x, r.pose.y, r.pose.yaw],
+                    v: r.v,
+                    omega: r.omega,
+                    wheel_rpm: r.wheel_rpm,
+                    duty: r.duty,
+                });
             }
         }
     });
@@ -325,7 +353,7 @@ fn write_folder(
     ep: &Episode,
     ctl: &AssemblyController,
     out: &Outcome,
-    traces: BTreeMap<RobotId, Vec<(f64, f64, f64)>>,
+    traces: BTreeMap<RobotId, Vec<Sample>>,
 ) -> anyhow::Result<()> {
     let mut f = RunFolder::create(base, &format!("episode-{}-{}", ep.seed, ep.profile.name()))?;
     std::fs::write(f.dir().join("scenario.toml"), ep.scenario_text())?;
@@ -333,8 +361,16 @@ fn write_folder(
     for e in &ctl.events {
         f.event(e)?;
     }
+    for tr in traces.values() {
+        for s in tr {
+            f.telemetry(s)?;
+        }
+    }
     for (id, tr) in traces {
-        f.traces.entry(id).or_default().actual = tr;
+        f.traces.entry(id).or_default().actual = tr
+            .into_iter()
+            .map(|s| (s.t, s.truth[0], s.truth[1]))
+            .collect();
     }
     f.write_json("outcome.json", out)?;
     f.finish()?;

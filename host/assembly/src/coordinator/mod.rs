@@ -10,6 +10,7 @@ mod motion;
 mod order;
 mod retarget;
 mod tasks;
+mod tug;
 
 pub use motion::VELOCITY_RAMP_S;
 use motion::{ramp_pose, ramp_velocity, MotionStart};
@@ -156,6 +157,12 @@ pub struct DockConfig {
     pub standoff: f64,
     /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
     pub min_turn: f64,
+    /// An anchor pair whose head stays inside the opening's guide, moving less than the
+    /// anchor's travel, for this long (s) while one of its robots is driven at the approach
+    /// speed is coupled ([`tug`]): an uncoupled head would have seated (going in) or left
+    /// the envelope (backing off) within (travel + seat) / speed ≈ 0.12 s; this is ten times
+    /// that plus the harsh profile's worst controller latency.
+    pub tug_s: f64,
 }
 
 impl Default for DockConfig {
@@ -174,6 +181,7 @@ impl Default for DockConfig {
             clearance: 0.003,
             standoff: 0.06,
             min_turn: 0.9,
+            tug_s: 1.5,
         }
     }
 }
@@ -557,6 +565,11 @@ pub struct Coordinator {
     now: f64,
     /// Closed-loop wiggles: the turning sense of every wiggling robot.
     wiggle_turns: BTreeMap<RobotId, WiggleTurn>,
+    /// Anchor pairs under a tug: since when the pair's head has stayed inside the opening's
+    /// guide while a robot of the pair drove, and where it was then ([`tug`]).
+    tugs: BTreeMap<usize, tug::Tug>,
+    /// Robots given a driving [`Role::Dock`] last tick.
+    driving: BTreeSet<RobotId>,
 }
 
 impl Coordinator {
@@ -587,6 +600,8 @@ impl Coordinator {
             kept_at: BTreeMap::new(),
             now: 0.0,
             wiggle_turns: BTreeMap::new(),
+            tugs: BTreeMap::new(),
+            driving: BTreeSet::new(),
         }
     }
 
@@ -1097,6 +1112,7 @@ impl Coordinator {
                 self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
             }
         }
+        self.confirm_by_tug(t);
         self.update_wiggles(t);
         self.complete_since = if self.is_complete() {
             Some(self.complete_since.unwrap_or(t))
@@ -1136,6 +1152,12 @@ impl Coordinator {
         let (mut tasks, active) = self.tasks(t, &segments);
         self.keep_grown(&mut tasks, &segments);
         self.make_way(&mut tasks, &segments, &active);
+        let speed = self.cfg.dock.speed;
+        self.driving = tasks
+            .iter()
+            .filter(|k| matches!(k.role, Role::Dock { v, .. } if v.abs() >= 0.5 * speed))
+            .map(|k| k.robot)
+            .collect();
         let maintain = self
             .pairs
             .iter()
