@@ -533,7 +533,12 @@ impl World {
             } else {
                 r.down.clear();
             }
-            if let Some(reason) = r.supervision.check(t1, &mut r.outputs) {
+            // Only a running chip has a watchdog (an offline robot is switched off).
+            let running = r.fw.is_some();
+            if let Some(reason) = running
+                .then(|| r.supervision.check(t1, &mut r.outputs))
+                .flatten()
+            {
                 r.down.clear();
                 if boot(r, &self.key, t1, reason).is_ok() {
                     let kind = EventKind::Booted {

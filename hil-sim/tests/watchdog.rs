@@ -182,3 +182,25 @@ fn a_stalled_robot_coasts_to_a_stop_after_its_reset() {
         wheel_rpm(&w, STALLED)
     );
 }
+
+#[test]
+fn a_robot_switched_off_stays_off() {
+    let mut w = World::new(&Scenario::grid(1, 5), &key()).expect("world");
+    let mut host = MiniHost::new(key());
+    while !host.established(STALLED) {
+        step(&mut w, &mut host);
+        assert!(w.time_us() < 2_000_000, "robot did not connect");
+    }
+    assert!(w.set_online(STALLED, false));
+    let t_off = w.time_us();
+    let mut announced = Vec::new();
+    while w.time_us() < t_off + 1_000_000 {
+        announced.extend(step(&mut w, &mut host));
+    }
+    assert!(
+        w.firmware(STALLED).is_none(),
+        "no watchdog boots a robot that is off"
+    );
+    assert!(announced.is_empty(), "{announced:?}");
+    assert_eq!(w.watchdog_resets(STALLED), Some(0));
+}
