@@ -188,6 +188,10 @@ enum ExperimentCmd {
         /// Folder of the custom shapes (default: host/assembly/data/shapes).
         #[arg(long)]
         shapes: Option<PathBuf>,
+        /// Share of the episodes (0-1) that form their shape in parallel (`grow = false`,
+        /// THESIS Algorithm 3) instead of growing it, the default formation.
+        #[arg(long, default_value_t = 0.0)]
+        parallel: f64,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,
@@ -336,37 +340,40 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     replay,
                     threads,
                     shapes,
+                    parallel,
                     json,
                 },
         } => {
             use puzzlebot_host::experiment::{assemblies, episode};
             let profile = episode::Profile::parse(&profile)?;
             let shapes_dir = shapes.unwrap_or_else(episode::default_shapes_dir);
+            if !(0.0..=1.0).contains(&parallel) {
+                anyhow::bail!("--parallel: a share within 0..=1, got {parallel}");
+            }
+            let mut opts = assemblies::Options {
+                episodes,
+                profile,
+                seed: 0,
+                threads,
+                shapes_dir,
+                progress: !json,
+                parallel,
+            };
             if let Some(seed) = replay {
-                let o = tokio::task::spawn_blocking(move || {
-                    assemblies::replay(seed, profile, &shapes_dir, &runs)
-                })
-                .await??;
+                let o = tokio::task::spawn_blocking(move || assemblies::replay(&opts, seed, &runs))
+                    .await??;
                 if json {
                     println!("{}", serde_json::to_string_pretty(&o)?);
                 }
                 return Ok(());
             }
-            let seed = seed.unwrap_or_else(|| {
+            opts.seed = seed.unwrap_or_else(|| {
                 let s = std::time::SystemTime::now()
                     .duration_since(std::time::UNIX_EPOCH)
                     .map_or(1, |d| d.as_secs());
                 eprintln!("seed {s} (from the clock; --seed {s} runs this batch again)");
                 s
             });
-            let opts = assemblies::Options {
-                episodes,
-                profile,
-                seed,
-                threads,
-                shapes_dir,
-                progress: !json,
-            };
             let s =
                 tokio::task::spawn_blocking(move || assemblies::command(&opts, &runs)).await??;
             if json {

@@ -7,7 +7,7 @@
 //! name = "demo"
 //!
 //! [[step]]
-//! form = { shape = "mesh", rows = 2 }
+//! form = { shape = "mesh", rows = 2 }   # grown around one robot; grow = false: in parallel
 //! timeout_s = 120
 //!
 //! [[step]]
@@ -94,6 +94,7 @@ impl TryFrom<f64> for Finite {
 
 /// `form = { shape = "line" | "mesh" | "path/to/shape.toml", rows = 2, heading_deg = 0 }`, or
 /// grown around one robot: `form = { shape = "mesh", rows = 2, grow = true, seed = 3 }`.
+/// Growing is the default; `grow = false` or a `heading_deg` forms the shape in parallel.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FormFile {
@@ -103,7 +104,7 @@ struct FormFile {
     #[serde(default)]
     heading_deg: Option<Finite>,
     #[serde(default)]
-    grow: bool,
+    grow: Option<bool>,
     #[serde(default)]
     seed: Option<RobotId>,
 }
@@ -480,8 +481,24 @@ impl Scenario {
                         ShapeSpec::Fixed(shape)
                     }
                 };
-                let grow = (f.grow || f.seed.is_some()).then_some(Grow { seed: f.seed });
-                if grow.is_some() && f.heading_deg.is_some() {
+                // Grown unless asked otherwise: one docking operation at a time, each robot
+                // routed round the others to a free approach (the parallel order of THESIS
+                // Algorithm 3 lets approaches cross; it is kept for a given heading).
+                let grown = match (f.grow, f.seed, f.heading_deg) {
+                    (Some(g), None, _) => g,
+                    (_, Some(_), _) => true,
+                    (None, None, heading) => heading.is_none(),
+                };
+                if f.grow == Some(false) && f.seed.is_some() {
+                    return Err(invalid(
+                        f.shape.span(),
+                        field("form.seed"),
+                        "a seed robot is what a shape grows around; drop seed or grow = false"
+                            .into(),
+                    ));
+                }
+                let grow = grown.then_some(Grow { seed: f.seed });
+                if f.grow == Some(true) && f.heading_deg.is_some() {
                     return Err(invalid(
                         f.shape.span(),
                         field("form.heading_deg"),
@@ -1146,9 +1163,19 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
             Behaviour::Form {
                 spec: ShapeSpec::Mesh { rows: 2 },
                 heading: None,
-                grow: None,
+                grow: Some(Grow { seed: None }),
             }
         );
+        // In parallel when asked, or for a given heading (a grown shape takes its seed's).
+        for form in ["grow = false", "heading_deg = 30"] {
+            let text = GOOD.replace("rows = 2 }", &format!("rows = 2, {form} }}"));
+            let p = parse(&text).unwrap();
+            assert!(
+                matches!(p.steps[0].behaviour, Behaviour::Form { grow: None, .. }),
+                "{form}: {:?}",
+                p.steps[0].behaviour
+            );
+        }
         assert_eq!(s.steps[0].timeout_s, Some(120.0));
         assert_eq!(s.steps[0].line, 4);
         assert!(

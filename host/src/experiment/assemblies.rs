@@ -32,6 +32,8 @@ pub struct Options {
     pub shapes_dir: PathBuf,
     /// Draw a progress bar.
     pub progress: bool,
+    /// Share of the episodes (without two pilots) formed in parallel instead of grown.
+    pub parallel: f64,
 }
 
 /// A success rate with its 95 % Wilson score interval.
@@ -118,7 +120,14 @@ pub fn run(opts: &Options, on_done: &(dyn Fn(&Outcome) + Sync)) -> anyhow::Resul
     let shapes = custom_shapes(&opts.shapes_dir)?;
     let start = std::time::Instant::now();
     let episodes: Vec<Episode> = (0..opts.episodes as u64)
-        .map(|i| Episode::draw(opts.seed.wrapping_add(i), opts.profile, &shapes))
+        .map(|i| {
+            Episode::draw(
+                opts.seed.wrapping_add(i),
+                opts.profile,
+                &shapes,
+                opts.parallel,
+            )
+        })
         .collect();
     let threads = match opts.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -375,14 +384,9 @@ pub fn command(opts: &Options, runs_dir: &Path) -> anyhow::Result<Summary> {
 }
 
 /// `--replay SEED`: one episode again, with its run folder; prints its outcome.
-pub fn replay(
-    seed: u64,
-    profile: Profile,
-    shapes_dir: &Path,
-    runs_dir: &Path,
-) -> anyhow::Result<Outcome> {
-    let shapes: Vec<CustomShape> = custom_shapes(shapes_dir)?;
-    let ep = Episode::draw(seed, profile, &shapes);
+pub fn replay(opts: &Options, seed: u64, runs_dir: &Path) -> anyhow::Result<Outcome> {
+    let shapes: Vec<CustomShape> = custom_shapes(&opts.shapes_dir)?;
+    let ep = Episode::draw(seed, opts.profile, &shapes, opts.parallel);
     println!("{}", ep.describe());
     let o = run_episode(&ep, Some(runs_dir));
     println!(

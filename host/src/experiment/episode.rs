@@ -256,8 +256,10 @@ const MOVE_TURN: (f64, f64) = (0.3, 0.8);
 const AREA_HALF_SIDE_4: f64 = 0.3;
 
 impl Episode {
-    /// The episode of `seed` under `profile`, drawing custom shapes from `shapes`.
-    pub fn draw(seed: u64, profile: Profile, shapes: &[CustomShape]) -> Episode {
+    /// The episode of `seed` under `profile`, drawing custom shapes from `shapes`; a share
+    /// `parallel` (0…1) of the episodes without two pilots forms its shape in parallel
+    /// (`grow = false`, THESIS Algorithm 3) instead of growing it (the default).
+    pub fn draw(seed: u64, profile: Profile, shapes: &[CustomShape], parallel: f64) -> Episode {
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         let pick = rng.random_range(0.0..1.0);
         let (shape, robots) = if pick < 0.12 && !shapes.is_empty() {
@@ -288,7 +290,7 @@ impl Episode {
             _ => rng.random_range(0..=1),
         };
         // Two pilots are only brought together by growing around the front one.
-        let grow = pilots == 2 || rng.random_bool(0.5);
+        let grow = pilots == 2 || rng.random_range(0.0..1.0) >= parallel;
         let distance = rng.random_range(MOVE_DISTANCE.0..MOVE_DISTANCE.1);
         let duration_s = distance / MOVE_SPEED;
         let w = if shape.can_turn() {
@@ -383,7 +385,11 @@ impl Episode {
                 format!("shape = {:?}", path.display().to_string())
             }
         };
-        let grow = if self.grow { ", grow = true" } else { "" };
+        let grow = if self.grow {
+            ", grow = true"
+        } else {
+            ", grow = false"
+        };
         let mut t = format!(
             "name = \"episode-{seed}\"\n\n[[step]]\nlabel = \"form\"\nform = {{ {shape}{grow} }}\ntimeout_s = {ft}\n\n[[step]]\nhold = {{ duration_s = 1.0 }}\n\n[[step]]\nlabel = \"move\"\nmove = {{ velocity = [{v}, {w}], duration_s = {d} }}\ntimeout_s = {mt}\n\n[[step]]\nhold = {{ duration_s = 1.0 }}\n",
             seed = self.seed,
@@ -448,8 +454,8 @@ mod tests {
     fn an_episode_is_fully_determined_by_its_seed_and_profile() {
         let shapes = custom_shapes(&default_shapes_dir()).expect("shapes");
         for seed in 1..40 {
-            let a = Episode::draw(seed, Profile::Lab, &shapes);
-            let b = Episode::draw(seed, Profile::Lab, &shapes);
+            let a = Episode::draw(seed, Profile::Lab, &shapes, 0.5);
+            let b = Episode::draw(seed, Profile::Lab, &shapes, 0.5);
             assert_eq!(a.scenario_text(), b.scenario_text());
             assert_eq!(
                 a.sim_scenario().expect("fits"),
@@ -465,7 +471,7 @@ mod tests {
     #[test]
     fn lab_robots_differ_from_the_host_model_within_ten_percent_and_ideal_ones_not() {
         let shapes = custom_shapes(&default_shapes_dir()).expect("shapes");
-        let lab = Episode::draw(7, Profile::Lab, &shapes)
+        let lab = Episode::draw(7, Profile::Lab, &shapes, 0.0)
             .sim_scenario()
             .expect("fits");
         let mut off = 0;
@@ -480,7 +486,7 @@ mod tests {
             }
         }
         assert!(off > 0, "no lab robot differs from the model");
-        let ideal = Episode::draw(7, Profile::Ideal, &shapes)
+        let ideal = Episode::draw(7, Profile::Ideal, &shapes, 0.0)
             .sim_scenario()
             .expect("fits");
         assert!(ideal
