@@ -284,9 +284,10 @@ impl Episode {
                 .find(|c| shape.bucket() == c.name)
                 .map_or(0, |c| c.pilot_slots),
             // A second pilot stands in the first's lane, linked to it through one non-pilot
-            // (`assign_around_lane`): lines of three or more and 2-row meshes have the slots.
+            // (`assign_around_lane`): lines of three or more and 2-row meshes of six or more
+            // have the slots (a 2 x 2 mesh has no slot ahead of another on its axis).
             EpisodeShape::Line if robots >= 3 => rng.random_range(0..=2),
-            EpisodeShape::Mesh { rows: 2 } => rng.random_range(0..=2),
+            EpisodeShape::Mesh { rows: 2 } if robots >= 6 => rng.random_range(0..=2),
             _ => rng.random_range(0..=1),
         };
         // Two pilots are only brought together by growing around the front one.

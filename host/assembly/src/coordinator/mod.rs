@@ -158,10 +158,10 @@ pub struct DockConfig {
     /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
     pub min_turn: f64,
     /// An anchor pair whose head stays inside the opening's guide, moving less than the
-    /// anchor's travel, for this long (s) while one of its robots is driven at the approach
-    /// speed is coupled ([`tug`]): an uncoupled head would have seated (going in) or left
-    /// the envelope (backing off) within (travel + seat) / speed ≈ 0.12 s; this is ten times
-    /// that plus the harsh profile's worst controller latency.
+    /// anchor's travel, for this long (s) while one of its robots drives away from the other
+    /// at the approach speed is coupled ([`tug`]): an uncoupled head would have left the
+    /// guide within (travel + seat) / speed ≈ 0.12 s; this is ten times that plus the harsh
+    /// profile's worst controller latency.
     pub tug_s: f64,
 }
 
@@ -568,8 +568,8 @@ pub struct Coordinator {
     /// Anchor pairs under a tug: since when the pair's head has stayed inside the opening's
     /// guide while a robot of the pair drove, and where it was then ([`tug`]).
     tugs: BTreeMap<usize, tug::Tug>,
-    /// Robots given a driving [`Role::Dock`] last tick.
-    driving: BTreeSet<RobotId>,
+    /// Robots given a driving [`Role::Dock`] last tick, with its forward speed (m/s).
+    driving: BTreeMap<RobotId, f64>,
 }
 
 impl Coordinator {
@@ -601,7 +601,7 @@ impl Coordinator {
             now: 0.0,
             wiggle_turns: BTreeMap::new(),
             tugs: BTreeMap::new(),
-            driving: BTreeSet::new(),
+            driving: BTreeMap::new(),
         }
     }
 
@@ -1155,8 +1155,10 @@ impl Coordinator {
         let speed = self.cfg.dock.speed;
         self.driving = tasks
             .iter()
-            .filter(|k| matches!(k.role, Role::Dock { v, .. } if v.abs() >= 0.5 * speed))
-            .map(|k| k.robot)
+            .filter_map(|k| match k.role {
+                Role::Dock { v, .. } if v.abs() >= 0.5 * speed => Some((k.robot, v)),
+                _ => None,
+            })
             .collect();
         let maintain = self
             .pairs

@@ -2,8 +2,9 @@
 //! (THESIS 4.2.2, 5.7), and an entering head that is pushed on seats with less than 0.2 N
 //! (THESIS 4.4.1). So an anchor pair whose head stays inside the opening's guide (past the
 //! face, on the axis, yaw within the range) without moving by more than the anchor's travel
-//! while one of its robots drives at the approach speed, forwards or backwards, is coupled:
-//! uncoupled, the head would have seated going in or left the envelope backing off.
+//! while one of its robots drives away from the other at the approach speed is coupled:
+//! uncoupled, the head would have left the guide. (Pushed together, a head that neither
+//! seats nor moves is blocked, not held: a coupled one would be seen seated.)
 //!
 //! This is the evidence the poses alone cannot give. A head reaches its seat only for the
 //! instant of insertion; a partner holding its place then pulls it out over its travel, and
@@ -50,7 +51,10 @@ impl Coordinator {
                 self.tugs.remove(&i);
                 continue;
             };
-            let pulled = self.driving.contains(&tp.pair.a) || self.driving.contains(&tp.pair.b);
+            // Away from each other: the anchor robot (in front) forwards, the opening robot
+            // backwards. Pushed together, a head that does not seat is blocked, not held.
+            let speed = |id: RobotId| self.driving.get(&id).copied().unwrap_or(0.0);
+            let pulled = speed(tp.pair.a) > 0.0 || speed(tp.pair.b) < 0.0;
             if tp.pair.kind != PairType::AnchorOpening
                 || tp.status == PairStatus::Connected
                 || self.released.contains(&i)
