@@ -196,6 +196,9 @@ pub struct AssemblyController {
     /// Log milestones (steps, couplings, formation, lost robots) on the console (default on;
     /// off for batch runs such as the coupling experiment).
     pub log_milestones: bool,
+    /// Longest a pose is predicted ahead from its measured velocity (s): its age plus the
+    /// command latency, capped here (the velocity estimate is a short window's mean).
+    pub max_prediction_s: f64,
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
     coupled: BTreeSet<RobotId>,
     finished_at: Option<f64>,
@@ -244,6 +247,7 @@ impl AssemblyController {
             constraint_retries: 0,
             settle: 0.5,
             log_milestones: true,
+            max_prediction_s: MAX_PREDICTION_S,
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -479,17 +483,29 @@ impl Controller for AssemblyController {
         let t0 = *self.t0.get_or_insert(view.t);
         let t = view.t - t0;
         self.last_t = t;
-        let states: Vec<RobotState> = view
-            .robots
-            .iter()
-            .filter_map(|r| {
-                r.pose.map(|p| RobotState {
-                    id: r.id,
-                    kind: r.kind,
-                    pose: Pose2::new(p.x, p.y, p.theta),
+        // Every pose brought to this tick's time (motion capture delivers them at different
+        // ages: a dropout leaves one robot's pose older than its partner's, and the pair
+        // measure would mix two instants), and, for the MPC's initial states, on to when the
+        // commands of this tick act (the measured latency).
+        let horizon = self.max_prediction_s;
+        let states_at = |ahead: f64| -> Vec<RobotState> {
+            view.robots
+                .iter()
+                .filter_map(|r| {
+                    r.pose.map(|p| {
+                        let dt = ((view.t - p.t).max(0.0) + ahead).min(horizon);
+                        let pose = Pose2::new(p.x, p.y, p.theta);
+                        RobotState {
+                            id: r.id,
+                            kind: r.kind,
+                            pose: r.velocity.map_or(pose, |w| predict(pose, w, dt)),
+                        }
+                    })
                 })
-            })
-            .collect();
+                .collect()
+        };
+        let states = states_at(0.0);
+        let predicted = states_at(view.latency_s.max(0.0));
         self.seen.extend(states.iter().map(|s| s.id));
         let tick = self.runner.tick(t, &states);
         if tracing::enabled!(target: "puzzlebot::roles", tracing::Level::TRACE) {
@@ -534,7 +550,7 @@ impl Controller for AssemblyController {
         if !matches!(self.runner.state(), RunState::Running { .. }) && self.finished_at.is_none() {
             self.finished_at = Some(t);
         }
-        let by_id: BTreeMap<RobotId, &RobotState> = states.iter().map(|s| (s.id, s)).collect();
+        let by_id: BTreeMap<RobotId, &RobotState> = predicted.iter().map(|s| (s.id, s)).collect();
         let mut inputs = Vec::new();
         let mut straight = BTreeSet::new();
         let mut wait = BTreeSet::new();
@@ -687,6 +703,32 @@ impl Controller for AssemblyController {
     fn hand_requests(&mut self) -> Vec<HandRequest> {
         std::mem::take(&mut self.hand)
     }
+}
+
+/// Default [`AssemblyController::max_prediction_s`] (s): the harsh profile's worst latency
+/// (130 ms) plus a pose period.
+pub const MAX_PREDICTION_S: f64 = 0.15;
+
+/// `pose` moved on for `dt` seconds at the constant twist `w` (exact unicycle arc).
+pub fn predict(pose: Pose2, w: Twist, dt: f64) -> Pose2 {
+    if dt <= 0.0 {
+        return pose;
+    }
+    let th = pose.yaw + w.omega * dt;
+    let (dx, dy) = if w.omega.abs() < 1e-6 {
+        (w.v * dt * pose.yaw.cos(), w.v * dt * pose.yaw.sin())
+    } else {
+        let r = w.v / w.omega;
+        (
+            r * (th.sin() - pose.yaw.sin()),
+            -r * (th.cos() - pose.yaw.cos()),
+        )
+    };
+    Pose2::new(
+        pose.x + dx,
+        pose.y + dy,
+        puzzlebot_assembly::geom::wrap_angle(th),
+    )
 }
 
 /// What `puzzlebot run SCENARIO.toml` left behind.

@@ -41,6 +41,10 @@ pub struct FleetView {
     pub t: f64,
     /// Online robots with proven sessions.
     pub robots: Vec<RobotView>,
+    /// How long after this tick the controller's commands are measured to take effect (s):
+    /// half the link's smoothed round trip on a real fleet, the measured delay of applied
+    /// commands in lockstep. Controllers predict poses this far ahead.
+    pub latency_s: f64,
 }
 
 /// A source of per-robot (v, ω) commands: trajectory following now; MPC and assembly
@@ -486,9 +490,13 @@ impl ControlLoop {
                 .iter()
                 .filter(|s| s.online && s.established)
                 .collect();
+            // One-way command latency: half the median smoothed round trip of the robots.
+            let mut rtts: Vec<f64> = online.iter().filter_map(|s| s.stats.rtt_avg_ms).collect();
+            rtts.sort_by(f64::total_cmp);
             let mut view = FleetView {
                 t: now,
                 robots: Vec::new(),
+                latency_s: rtts.get(rtts.len() / 2).map_or(0.0, |ms| 0.5e-3 * ms),
             };
             for s in &online {
                 let kind = s.kind.unwrap_or(RobotKind::NonPilot);

@@ -24,6 +24,9 @@ use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
 /// its own noise from the seed itself).
 const JITTER_SEED: u64 = 0x6a09_e667_f3bc_c909;
 
+/// Weight of the newest measured command delay in its running average.
+const LATENCY_SMOOTHING: f64 = 0.2;
+
 /// The host side of every robot's session, in process.
 struct Host {
     key: FleetKey,
@@ -249,8 +252,12 @@ impl Lockstep {
         let ctl_period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
         let (mut next_cmd, mut next_ctl) = (start, start);
         let mut cmds: BTreeMap<RobotId, Twist> = BTreeMap::new();
-        let mut pending: std::collections::VecDeque<(u64, BTreeMap<RobotId, Twist>)> =
+        // (apply time, issue time, commands), in order.
+        let mut pending: std::collections::VecDeque<(u64, u64, BTreeMap<RobotId, Twist>)> =
             std::collections::VecDeque::new();
+        // Measured delay from a tick to its commands acting (µs, smoothed), as a real host
+        // measures it from the robots' command echo.
+        let mut latency_us = 0.0_f64;
         let dt = self.command_period_us as f64 * 1e-6;
         let mut done = false;
         loop {
@@ -265,6 +272,7 @@ impl Lockstep {
                 let mut view = FleetView {
                     t,
                     robots: Vec::new(),
+                    latency_s: latency_us * 1e-6,
                 };
                 // As the real link: only robots whose session is established and that were
                 // heard from recently (a switched-off robot drops out and is lost).
@@ -321,16 +329,20 @@ impl Lockstep {
                         0
                     };
                     // A later tick's commands never overtake an earlier tick's.
-                    let after = pending.back().map_or(0, |&(at, _)| at);
-                    pending
-                        .push_back(((now + self.command_delay_us + jitter).max(after), new_cmds));
+                    let after = pending.back().map_or(0, |&(at, _, _)| at);
+                    pending.push_back((
+                        (now + self.command_delay_us + jitter).max(after),
+                        now,
+                        new_cmds,
+                    ));
                     if ctl.done(t) {
                         done = true;
                         break;
                     }
                 }
-                while pending.front().is_some_and(|(at, _)| *at <= now) {
-                    if let Some((_, c)) = pending.pop_front() {
+                while pending.front().is_some_and(|(at, _, _)| *at <= now) {
+                    if let Some((_, issued, c)) = pending.pop_front() {
+                        latency_us += LATENCY_SMOOTHING * ((now - issued) as f64 - latency_us);
                         cmds = c;
                     }
                 }

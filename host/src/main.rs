@@ -192,6 +192,9 @@ enum ExperimentCmd {
         /// THESIS Algorithm 3) instead of growing it, the default formation.
         #[arg(long, default_value_t = 0.0)]
         parallel: f64,
+        /// Largest fleet drawn (6-12).
+        #[arg(long, default_value_t = 12)]
+        max_robots: usize,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,
@@ -341,6 +344,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     threads,
                     shapes,
                     parallel,
+                    max_robots,
                     json,
                 },
         } => {
@@ -358,6 +362,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 shapes_dir,
                 progress: !json,
                 parallel,
+                max_robots,
             };
             if let Some(seed) = replay {
                 let o = tokio::task::spawn_blocking(move || assemblies::replay(&opts, seed, &runs))

@@ -34,6 +34,28 @@ pub struct Options {
     pub progress: bool,
     /// Share of the episodes (without two pilots) formed in parallel instead of grown.
     pub parallel: f64,
+    /// Largest fleet drawn (6…12).
+    pub max_robots: usize,
+}
+
+impl Options {
+    /// `episodes` episodes under `profile` from seed `seed`, the default draw, no progress bar.
+    pub fn new(episodes: usize, profile: Profile, seed: u64) -> Options {
+        Options {
+            episodes,
+            profile,
+            seed,
+            threads: 0,
+            shapes_dir: super::episode::default_shapes_dir(),
+            progress: false,
+            parallel: 0.0,
+            max_robots: super::episode::MAX_ROBOTS,
+        }
+    }
+
+    fn draw(&self, seed: u64, shapes: &[CustomShape]) -> Episode {
+        Episode::draw_up_to(seed, self.profile, shapes, self.parallel, self.max_robots)
+    }
 }
 
 /// A success rate with its 95 % Wilson score interval.
@@ -120,14 +142,7 @@ pub fn run(opts: &Options, on_done: &(dyn Fn(&Outcome) + Sync)) -> anyhow::Resul
     let shapes = custom_shapes(&opts.shapes_dir)?;
     let start = std::time::Instant::now();
     let episodes: Vec<Episode> = (0..opts.episodes as u64)
-        .map(|i| {
-            Episode::draw(
-                opts.seed.wrapping_add(i),
-                opts.profile,
-                &shapes,
-                opts.parallel,
-            )
-        })
+        .map(|i| opts.draw(opts.seed.wrapping_add(i), &shapes))
         .collect();
     let threads = match opts.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -386,7 +401,7 @@ pub fn command(opts: &Options, runs_dir: &Path) -> anyhow::Result<Summary> {
 /// `--replay SEED`: one episode again, with its run folder; prints its outcome.
 pub fn replay(opts: &Options, seed: u64, runs_dir: &Path) -> anyhow::Result<Outcome> {
     let shapes: Vec<CustomShape> = custom_shapes(&opts.shapes_dir)?;
-    let ep = Episode::draw(seed, opts.profile, &shapes, opts.parallel);
+    let ep = opts.draw(seed, &shapes);
     println!("{}", ep.describe());
     let o = run_episode(&ep, Some(runs_dir));
     println!(

@@ -245,6 +245,8 @@ pub struct Episode {
     pub dissolve: bool,
 }
 
+/// Largest fleet of an episode.
+pub const MAX_ROBOTS: usize = 12;
 /// Speed of every episode's move (m/s): what the demo drives at.
 const MOVE_SPEED: f64 = 0.05;
 /// Distance of the move (m): at least, at most.
@@ -260,6 +262,20 @@ impl Episode {
     /// `parallel` (0…1) of the episodes without two pilots forms its shape in parallel
     /// (`grow = false`, THESIS Algorithm 3) instead of growing it (the default).
     pub fn draw(seed: u64, profile: Profile, shapes: &[CustomShape], parallel: f64) -> Episode {
+        Episode::draw_up_to(seed, profile, shapes, parallel, MAX_ROBOTS)
+    }
+
+    /// [`Episode::draw`] with fleets of at most `max_robots` (≥ 6; custom shapes with more
+    /// slots are left out): a quicker sample.
+    pub fn draw_up_to(
+        seed: u64,
+        profile: Profile,
+        shapes: &[CustomShape],
+        parallel: f64,
+        max_robots: usize,
+    ) -> Episode {
+        let max = max_robots.clamp(6, MAX_ROBOTS);
+        let shapes: Vec<&CustomShape> = shapes.iter().filter(|c| c.slots <= max).collect();
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         let pick = rng.random_range(0.0..1.0);
         let (shape, robots) = if pick < 0.12 && !shapes.is_empty() {
@@ -272,11 +288,11 @@ impl Episode {
                 c.slots,
             )
         } else if pick < 0.45 {
-            (EpisodeShape::Line, rng.random_range(2..=12))
+            (EpisodeShape::Line, rng.random_range(2..=max))
         } else if pick < 0.75 {
-            (EpisodeShape::Mesh { rows: 2 }, rng.random_range(4..=12))
+            (EpisodeShape::Mesh { rows: 2 }, rng.random_range(4..=max))
         } else {
-            (EpisodeShape::Mesh { rows: 3 }, rng.random_range(6..=12))
+            (EpisodeShape::Mesh { rows: 3 }, rng.random_range(6..=max))
         };
         let pilots = match &shape {
             EpisodeShape::Custom { .. } => shapes
