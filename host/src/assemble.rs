@@ -199,6 +199,9 @@ pub struct AssemblyController {
     /// Longest a pose is predicted ahead from its measured velocity (s): its age plus the
     /// command latency, capped here (the velocity estimate is a short window's mean).
     pub max_prediction_s: f64,
+    /// Every robot's last pose and velocity (kind, pose, velocity), for
+    /// [`AssemblyController::max_prediction_s`].
+    last_seen: BTreeMap<RobotId, (RobotKind, crate::drive::PoseSample, Option<Twist>)>,
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
     coupled: BTreeSet<RobotId>,
     finished_at: Option<f64>,
@@ -248,6 +251,7 @@ impl AssemblyController {
             settle: 0.5,
             log_milestones: true,
             max_prediction_s: MAX_PREDICTION_S,
+            last_seen: BTreeMap::new(),
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -487,20 +491,30 @@ impl Controller for AssemblyController {
         // ages: a dropout leaves one robot's pose older than its partner's, and the pair
         // measure would mix two instants), and, for the MPC's initial states, on to when the
         // commands of this tick act (the measured latency).
+        // A robot missing from this view (a motion-capture dropout) keeps its last pose and
+        // velocity for up to the prediction horizon; without either, the coordinator would
+        // pair its stale pose with its partners' fresh ones.
         let horizon = self.max_prediction_s;
+        for r in &view.robots {
+            if let Some(p) = r.pose {
+                let last = self.last_seen.get(&r.id).and_then(|l| l.2);
+                self.last_seen
+                    .insert(r.id, (r.kind, p, r.velocity.or(last)));
+            }
+        }
+        self.last_seen
+            .retain(|_, (_, p, _)| view.t - p.t <= horizon);
         let states_at = |ahead: f64| -> Vec<RobotState> {
-            view.robots
+            self.last_seen
                 .iter()
-                .filter_map(|r| {
-                    r.pose.map(|p| {
-                        let dt = ((view.t - p.t).max(0.0) + ahead).min(horizon);
-                        let pose = Pose2::new(p.x, p.y, p.theta);
-                        RobotState {
-                            id: r.id,
-                            kind: r.kind,
-                            pose: r.velocity.map_or(pose, |w| predict(pose, w, dt)),
-                        }
-                    })
+                .map(|(&id, &(kind, p, w))| {
+                    let dt = ((view.t - p.t).max(0.0) + ahead).min(horizon);
+                    let pose = Pose2::new(p.x, p.y, p.theta);
+                    RobotState {
+                        id,
+                        kind,
+                        pose: w.map_or(pose, |w| predict(pose, w, dt)),
+                    }
                 })
                 .collect()
         };

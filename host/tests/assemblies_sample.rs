@@ -7,10 +7,9 @@
 use puzzlebot_host::experiment::assemblies::{describe, run, Options};
 use puzzlebot_host::experiment::episode::Profile;
 
-/// Share of the sample that must succeed. Below the 95 % target: the figure the
-/// coordinator reaches today on this sample, less one episode per profile (see
-/// BENCHMARKS.md for the randomized figures).
-const FLOOR: f64 = 0.85;
+/// Share of the sample that must succeed (the lab target of DESIGN §9; the randomized
+/// figures over fresh seeds and larger fleets are in BENCHMARKS.md).
+const FLOOR: f64 = 0.95;
 
 #[test]
 fn a_fixed_sample_of_random_episodes_forms_moves_and_dissolves() {

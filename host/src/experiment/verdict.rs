@@ -8,7 +8,8 @@
 //! A failed episode gets one [`Failure`] class, the first that applies:
 //! robot fell → MPC infeasible (≥ 20 % of the controller's ticks had a failed solve) →
 //! unplanned coupling (in the ground truth at formation complete, or still held when
-//! formation failed) → pair popped (a planned pair came apart after formation complete) →
+//! formation failed) → pair popped (a planned pair came apart after formation complete, in
+//! the ground truth or, failing the move, in the host's view) →
 //! by the step that failed: the dissolve or disperse steps → dissolve time-out; formation →
 //! pilot off its lane (the lane pilot more than twice the lane tolerance off the front pilot's
 //! axis, uncoupled), docking oscillation (the pair statuses changed ≥ 12 times in the last
@@ -513,6 +514,10 @@ fn judge(
                 let f = classify_formation(ep, ctl, run, truth, samples, &reason);
                 verdict(f, d);
             }
+            // The move stops when the host sees a pair come apart and couples it again; it
+            // fails when that keeps happening (the ground truth may still hold the pair: the
+            // host's view of it came apart).
+            "move" if reason.contains("came apart") => verdict(Failure::PairPopped, d),
             _ => verdict(Failure::Other, d),
         }
     }
