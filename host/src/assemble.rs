@@ -199,6 +199,10 @@ pub struct AssemblyController {
     /// Longest a pose is predicted ahead from its measured velocity (s): its age plus the
     /// command latency, capped here (the velocity estimate is a short window's mean).
     pub max_prediction_s: f64,
+    /// Longest the first plan waits for every online robot's first pose (s).
+    pub fleet_wait_s: f64,
+    /// The scenario has had its first tick.
+    runner_started: bool,
     /// Every robot's last pose and velocity (kind, pose, velocity), for
     /// [`AssemblyController::max_prediction_s`].
     last_seen: BTreeMap<RobotId, (RobotKind, crate::drive::PoseSample, Option<Twist>)>,
@@ -252,6 +256,8 @@ impl AssemblyController {
             log_milestones: true,
             max_prediction_s: MAX_PREDICTION_S,
             last_seen: BTreeMap::new(),
+            fleet_wait_s: FLEET_WAIT_S,
+            runner_started: false,
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -518,6 +524,19 @@ impl Controller for AssemblyController {
                 })
                 .collect()
         };
+        // Before the first plan, every online robot must have been seen: a robot whose first
+        // pose has not arrived would be left out of the plan (its shape then has a slot too
+        // many). Everyone holds meanwhile, for at most `fleet_wait_s`.
+        if !self.runner_started {
+            let unseen = view
+                .robots
+                .iter()
+                .any(|r| !self.last_seen.contains_key(&r.id));
+            if unseen && t < self.fleet_wait_s {
+                return BTreeMap::new();
+            }
+            self.runner_started = true;
+        }
         let states = states_at(0.0);
         let predicted = states_at(view.latency_s.max(0.0));
         self.seen.extend(states.iter().map(|s| s.id));
@@ -723,6 +742,10 @@ impl Controller for AssemblyController {
 /// (130 ms) plus a pose period.
 pub const MAX_PREDICTION_S: f64 = 0.15;
 
+/// Default [`AssemblyController::fleet_wait_s`] (s): a hundred frames of the 100 Hz motion
+/// capture, where a first pose lost to a dropout arrives in the next.
+pub const FLEET_WAIT_S: f64 = 1.0;
+
 /// `pose` moved on for `dt` seconds at the constant twist `w` (exact unicycle arc).
 pub fn predict(pose: Pose2, w: Twist, dt: f64) -> Pose2 {
     if dt <= 0.0 {
@@ -843,16 +866,36 @@ pub async fn run_scenario(
 /// One robot's ground truth at one sample of a lockstep run (`telemetry.jsonl`; a real-time
 /// run's records also carry the link's telemetry, see `control.rs`).
 #[derive(Debug, Serialize)]
-struct TruthRecord {
-    t: f64,
-    robot: RobotId,
+pub struct TruthRecord {
+    /// Controller time (s).
+    pub t: f64,
+    /// Robot.
+    pub robot: RobotId,
     /// Pose [x, y, θ] (m, m, rad).
-    truth: [f64; 3],
-    /// Forward speed (m/s) and turn rate (rad/s).
-    v: f64,
-    omega: f64,
+    pub truth: [f64; 3],
+    /// Forward speed (m/s).
+    pub v: f64,
+    /// Turn rate (rad/s).
+    pub omega: f64,
     /// Wheel speeds (RPM).
-    wheel_rpm: [f64; 2],
+    pub wheel_rpm: [f64; 2],
+    /// Motor duty (per mille).
+    pub duty: [i16; 2],
+}
+
+impl TruthRecord {
+    /// The record of robot truth `r` at controller time `t`.
+    pub fn of(t: f64, r: &puzzlebot_sim::RobotTruth) -> TruthRecord {
+        TruthRecord {
+            t,
+            robot: r.id,
+            truth: [r.pose.x, r.pose.y, r.pose.yaw],
+            v: r.v,
+            omega: r.omega,
+            wheel_rpm: r.wheel_rpm,
+            duty: r.duty,
+        }
+    }
 }
 
 /// [`run_scenario`] with the host's controller stepped in lockstep with the simulator
@@ -885,14 +928,7 @@ pub fn run_scenario_lockstep(
                 let tr = folder.traces.entry(r.id).or_default();
                 tr.actual.push((t, r.pose.x, r.pose.y));
                 if written.is_ok() {
-                    written = folder.telemetry(&TruthRecord {
-                        t,
-                        robot: r.id,
-                        truth: [r.pose.x, r.pose.y, r.pose.yaw],
-                        v: r.v,
-                        omega: r.omega,
-                        wheel_rpm: r.wheel_rpm,
-                    });
+                    written = folder.telemetry(&TruthRecord::of(t, &r));
                 }
             }
         }

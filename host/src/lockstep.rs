@@ -282,6 +282,17 @@ impl Lockstep {
                         if let Some((_, est)) = self.stabilisers.get_mut(&r.id) {
                             est.clear();
                         }
+                        // Online but not tracked: the controller knows it is there.
+                        view.robots.push(RobotView {
+                            id: r.id,
+                            kind: self
+                                .kinds
+                                .get(&r.id)
+                                .copied()
+                                .unwrap_or(RobotKind::NonPilot),
+                            pose: None,
+                            velocity: None,
+                        });
                         continue;
                     };
                     let t_pose = at.saturating_sub(start) as f64 * 1e-6;
@@ -346,7 +357,9 @@ impl Lockstep {
                         cmds = c;
                     }
                 }
-                for rv in &view.robots {
+                // An untracked robot gets no command this period (its firmware holds the
+                // last one until its failsafe timeout).
+                for rv in view.robots.iter().filter(|rv| rv.pose.is_some()) {
                     let msg = match (cmds.get(&rv.id), self.stabilisers.get_mut(&rv.id)) {
                         (Some(&w), Some((stab, _))) => {
                             let measured = if self.options.stabilise && ctl.stabilise(rv.id) {

@@ -28,7 +28,7 @@ use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::{EventKind as SimEventKind, World};
 use serde::Serialize;
 
-use crate::assemble::{AssemblyController, GateConfig};
+use crate::assemble::{AssemblyController, GateConfig, TruthRecord};
 use crate::control::{Controller, FleetView, HandRequest};
 use crate::drive::Twist;
 use crate::lockstep::Lockstep;
@@ -208,24 +208,6 @@ fn slot_neighbours(plan: &puzzlebot_assembly::Plan) -> BTreeSet<(RobotId, RobotI
     out
 }
 
-/// One robot's ground truth at one sample of a replayed episode (`telemetry.jsonl`).
-#[derive(Debug, Serialize)]
-struct Sample {
-    /// Controller time (s).
-    t: f64,
-    robot: RobotId,
-    /// [x m, y m, yaw rad].
-    truth: [f64; 3],
-    /// Forward speed (m/s).
-    v: f64,
-    /// Turn rate (rad/s).
-    omega: f64,
-    /// Wheel speeds (RPM).
-    wheel_rpm: [f64; 2],
-    /// Motor duty (per mille).
-    duty: [i16; 2],
-}
-
 /// Ground truth sampled during a run.
 #[derive(Default)]
 struct Samples {
@@ -314,7 +296,7 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
         seen_events: 0,
     };
     let mut samples = Samples::default();
-    let mut traces: BTreeMap<RobotId, Vec<Sample>> = BTreeMap::new();
+    let mut traces: BTreeMap<RobotId, Vec<TruthRecord>> = BTreeMap::new();
     let record = folder.is_some();
     let run = ls.run(&mut ctl, ep.run_limit_s(), |w, t| {
         samples.take(w, t);
@@ -325,15 +307,7 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
                 .is_none_or(|tr| tr.last().is_none_or(|l| t - l.t >= 0.1))
         {
             for r in w.ground_truth().robots {
-                traces.entry(r.id).or_default().push(Sample {
-                    t,
-                    robot: r.id,
-                    truth: [r.pose.x, r.pose.y, r.pose.yaw],
-                    v: r.v,
-                    omega: r.omega,
-                    wheel_rpm: r.wheel_rpm,
-                    duty: r.duty,
-                });
+                traces.entry(r.id).or_default().push(TruthRecord::of(t, &r));
             }
         }
     });
@@ -354,7 +328,7 @@ fn write_folder(
     ep: &Episode,
     ctl: &AssemblyController,
     out: &Outcome,
-    traces: BTreeMap<RobotId, Vec<Sample>>,
+    traces: BTreeMap<RobotId, Vec<TruthRecord>>,
 ) -> anyhow::Result<()> {
     let mut f = RunFolder::create(base, &format!("episode-{}-{}", ep.seed, ep.profile.name()))?;
     std::fs::write(f.dir().join("scenario.toml"), ep.scenario_text())?;

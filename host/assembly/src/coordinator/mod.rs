@@ -678,6 +678,26 @@ impl Coordinator {
         self.pending.push(e);
     }
 
+    /// Record pair `i`'s status changes as events.
+    fn push_transitions(&mut self, i: usize, transitions: Vec<crate::pair::Transition>) {
+        let Some(p) = self.pairs.get(i).map(|tp| tp.pair) else {
+            return;
+        };
+        for x in transitions {
+            self.push(
+                x.t,
+                EventKind::PairStatus {
+                    pair: i,
+                    a: p.a,
+                    b: p.b,
+                    kind: p.kind,
+                    from: x.from,
+                    to: x.to,
+                },
+            );
+        }
+    }
+
     fn observe(&mut self, t: f64, robots: &[RobotState]) {
         for r in robots {
             if r.pose.is_finite() && !self.lost.contains(&r.id) {
@@ -1078,20 +1098,7 @@ impl Coordinator {
             };
             let (pa, pb) = (ka.pose, kb.pose);
             let tr = self.pairs[i].update(t, &pa, &pb, &self.geometry, &self.cfg.tolerances);
-            let kind = self.pairs[i].pair.kind;
-            for x in tr {
-                self.push(
-                    x.t,
-                    EventKind::PairStatus {
-                        pair: i,
-                        a,
-                        b,
-                        kind,
-                        from: x.from,
-                        to: x.to,
-                    },
-                );
-            }
+            self.push_transitions(i, tr);
         }
         // Release decoupled pairs of a decouple behaviour.
         if let Mode::Decouple { pairs, .. } = &self.mode {

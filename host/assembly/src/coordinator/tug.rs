@@ -77,22 +77,9 @@ impl Coordinator {
             let Some(tp) = self.pairs.get_mut(i) else {
                 continue;
             };
-            let (a, b, kind) = (tp.pair.a, tp.pair.b, tp.pair.kind);
             let transitions = tp.confirm_held(t, &self.geometry, &tol);
             self.dock_dir.borrow_mut().remove(&i);
-            for x in transitions {
-                self.push(
-                    x.t,
-                    EventKind::PairStatus {
-                        pair: i,
-                        a,
-                        b,
-                        kind,
-                        from: x.from,
-                        to: x.to,
-                    },
-                );
-            }
+            self.push_transitions(i, transitions);
         }
     }
 }
