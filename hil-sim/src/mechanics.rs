@@ -596,24 +596,13 @@ impl Mechanics {
 
     /// Union–find over the links that pass `keep`: a group label per body.
     fn groups(&self, n: usize, keep: impl Fn(&Link) -> bool) -> Vec<usize> {
-        let mut g: Vec<usize> = (0..n).collect();
-        fn find(g: &mut [usize], mut x: usize) -> usize {
-            while g[x] != x {
-                g[x] = g[g[x]];
-                x = g[x];
-            }
-            x
-        }
+        let mut g = petgraph::unionfind::UnionFind::<usize>::new(n);
         for l in self.links.iter().filter(|l| keep(l)) {
             if l.a < n && l.b < n {
-                let (ra, rb) = (find(&mut g, l.a), find(&mut g, l.b));
-                g[ra] = rb;
+                g.union(l.a, l.b);
             }
         }
-        for x in 0..n {
-            g[x] = find(&mut g, x);
-        }
-        g
+        g.into_labeling()
     }
 
     fn project_contacts(&self, bodies: &mut [Body], groups: &[usize]) -> bool {

@@ -579,17 +579,9 @@ impl World {
     fn terrain_step(&mut self, t_us: u64) {
         // Coupled groups (union–find over coupled links).
         let n = self.robots.len();
-        let mut parent: Vec<usize> = (0..n).collect();
-        fn find(p: &mut [usize], mut i: usize) -> usize {
-            while p[i] != i {
-                p[i] = p[p[i]];
-                i = p[i];
-            }
-            i
-        }
+        let mut groups = petgraph::unionfind::UnionFind::<usize>::new(n);
         for (a, b, _) in self.mech.coupled() {
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            parent[ra] = rb;
+            groups.union(a, b);
         }
         let mut blocked = Vec::new();
         for i in 0..n {
@@ -644,7 +636,7 @@ impl World {
         for i in 0..n {
             let r = &self.robots[i];
             if !r.fallen && self.terrain.support_at(r.pose.pos()).is_none() {
-                let root = find(&mut parent, i);
+                let root = groups.find_mut(i);
                 if !roots.contains(&root) {
                     roots.push(root);
                 }
@@ -652,7 +644,7 @@ impl World {
         }
         for root in roots {
             let members: Vec<usize> = (0..n)
-                .filter(|&i| !self.robots[i].fallen && find(&mut parent, i) == root)
+                .filter(|&i| !self.robots[i].fallen && groups.find_mut(i) == root)
                 .collect();
             let mut pts = Vec::new();
             let mut com = [0.0, 0.0];

@@ -792,17 +792,11 @@ mod props {
             ids.sort_unstable();
             ids.dedup();
             prop_assert_eq!(ids.len(), n);
-            // Union-find: the pairs connect every robot.
-            let mut parent: std::collections::HashMap<RobotId, RobotId> = plan.slot_robot.iter().map(|&r| (r, r)).collect();
-            fn find(p: &mut std::collections::HashMap<RobotId, RobotId>, x: RobotId) -> RobotId {
-                let mut x = x;
-                while p[&x] != x { x = p[&x]; }
-                x
-            }
+            // Union-find: the pairs connect every robot (n − 1 pairs and no cycle).
+            let index = |r: RobotId| plan.slot_robot.iter().position(|&x| x == r).expect("planned robot");
+            let mut groups = petgraph::unionfind::UnionFind::<usize>::new(n);
             for pp in &plan.pairs {
-                let (a, b) = (find(&mut parent, pp.a), find(&mut parent, pp.b));
-                prop_assert_ne!(a, b, "pairs must not form a cycle");
-                parent.insert(a, b);
+                prop_assert!(groups.union(index(pp.a), index(pp.b)), "pairs must not form a cycle");
             }
             for w in plan.pairs.windows(2) {
                 prop_assert!(distance_bucket(w[0].centre_distance) <= distance_bucket(w[1].centre_distance));

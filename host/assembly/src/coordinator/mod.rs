@@ -1038,28 +1038,20 @@ impl Coordinator {
         let ids = self.live_ids();
         let index: BTreeMap<RobotId, usize> =
             ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
-        let mut parent: Vec<usize> = (0..ids.len()).collect();
-        fn find(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
+        let mut groups = petgraph::unionfind::UnionFind::<usize>::new(ids.len());
         for (i, tp) in self.pairs.iter().enumerate() {
             if tp.status != PairStatus::Connected || self.released.contains(&i) {
                 continue;
             }
             if let (Some(&a), Some(&b)) = (index.get(&tp.pair.a), index.get(&tp.pair.b)) {
-                let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                parent[ra.max(rb)] = ra.min(rb);
+                groups.union(a, b);
             }
         }
         // Renumber roots densely in id order.
         let mut dense = BTreeMap::new();
         let mut out = BTreeMap::new();
         for (i, &id) in ids.iter().enumerate() {
-            let r = find(&mut parent, i);
+            let r = groups.find_mut(i);
             let n = dense.len();
             let s = *dense.entry(r).or_insert(n);
             out.insert(id, s);
