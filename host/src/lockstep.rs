@@ -278,6 +278,11 @@ impl Lockstep {
                 // heard from recently (a switched-off robot drops out and is lost).
                 let (host, off) = (&self.host, self.offline_us);
                 for r in truth.robots.iter().filter(|r| host.online(r.id, now, off)) {
+                    let kind = self
+                        .kinds
+                        .get(&r.id)
+                        .copied()
+                        .unwrap_or(RobotKind::NonPilot);
                     let Some((at, x, y, theta)) = self.observed(r, now) else {
                         if let Some((_, est)) = self.stabilisers.get_mut(&r.id) {
                             est.clear();
@@ -285,11 +290,7 @@ impl Lockstep {
                         // Online but not tracked: the controller knows it is there.
                         view.robots.push(RobotView {
                             id: r.id,
-                            kind: self
-                                .kinds
-                                .get(&r.id)
-                                .copied()
-                                .unwrap_or(RobotKind::NonPilot),
+                            kind,
                             pose: None,
                             velocity: None,
                         });
@@ -312,11 +313,7 @@ impl Lockstep {
                     self.estimated.insert(r.id, at);
                     view.robots.push(RobotView {
                         id: r.id,
-                        kind: self
-                            .kinds
-                            .get(&r.id)
-                            .copied()
-                            .unwrap_or(RobotKind::NonPilot),
+                        kind,
                         pose: Some(pose),
                         velocity,
                     });
