@@ -650,14 +650,9 @@ fn six_scattered_robots_grow_a_two_row_mesh_around_their_pilot() {
     // The formation a user starts from: robots dropped anywhere. Forming in parallel needs
     // trains to manoeuvre onto each other; grown around the pilot (which is never driven
     // alone, THESIS 3.5.2), every robot joins the assembly alone, routed round the others.
-    // Measured 2026-11-22 (session 4) over seeds 1–12: 11 form within 240 s, 8 of them without the pilot
-    // pushed sideways or turned (the others: a robot bumped the assembly while joining).
-    // 2026-12-01, with commands inside the wheels' dead-band dithered (`drive::Stabiliser`):
-    // every check passes for 13 of seeds 1–24 (9 of 1–12; 15 without the dither), the
-    // failures mostly a robot that bumped the assembly while joining; seeds 3 and 4 are two.
-    // Session 8, with side docking kept off the wrong hole: 30 of seeds 1–48 (23 before);
-    // session 9, with the grown assembly's held robots keeping their pose: 36 (12 of 1–12);
-    // session 10, with waiting robots making way for an approach: 37.
+    // Seeds 3 and 4 are two starts the mesh grows from without the pilot being pushed
+    // sideways or turned; the failures over other seeds are mostly a robot that bumps the
+    // assembly while joining (BENCHMARKS.md has the current figures).
     for seed in [3, 4] {
         println!("seed {seed}");
         let f = puzzlebot_host::assemble::scattered_fleet(6, 1, seed);
@@ -704,14 +699,10 @@ timeout_s = 240
 
 #[test]
 fn the_assembly_demo_grows_a_mesh_drives_it_dissolves_it_and_disperses() {
-    // Exactly what `puzzlebot demo` runs, in lockstep. Measured 2026-11-22 over
-    // seeds 1–12 of `scattered_fleet(6, 1, seed)`: 10 grow the mesh and drive it 0.5 m with
-    // every coupling intact (8 before the formation settling of session 5; the others pop an
-    // anchor while driving); the demo's seed 5 is one of the ten. Session 8 (2026-12-01), seeds
-    // 1–48 at 0 and 20 ms: formed 72 of 96, formed and drove intact 56; session 9
-    // (2026-12-02): formed 80, intact 76 (seeds 1–96: 150 and 145 of 192, the README's Status).
-    // Session 10: then the knob pairs are lifted by hand and the anchors wiggled open; seeds
-    // 1–96 at 0 and 20 ms with every goal 0.1 m ahead: 153 of 192 pass every step.
+    // The one-pilot demo, in lockstep: the mesh grows, drives 0.5 m with every coupling
+    // intact, the knob pairs are lifted by hand, the anchors wiggled open and every robot goes
+    // to its own goal. Seed 5 is a start that passes every step (BENCHMARKS.md has the
+    // figures over fresh seeds).
     let f = puzzlebot_host::assemble::grow_demo_fleet();
     let mut ctl = controller(&f, puzzlebot_host::assemble::GROW_DEMO_SCENARIO);
     // The pilot's pose over the run, to measure the drive from where the step began.
