@@ -13,5 +13,6 @@ pub mod experiment;
 pub mod link;
 pub mod lockstep;
 pub mod pose;
+pub mod record;
 pub mod report;
 pub mod simulated;

@@ -356,6 +356,7 @@ impl Lockstep {
                 }
                 // An untracked robot gets no command this period (its firmware holds the
                 // last one until its failsafe timeout).
+                let mut sent = Vec::with_capacity(view.robots.len());
                 for rv in view.robots.iter().filter(|rv| rv.pose.is_some()) {
                     let msg = match (cmds.get(&rv.id), self.stabilisers.get_mut(&rv.id)) {
                         (Some(&w), Some((stab, _))) => {
@@ -381,7 +382,9 @@ impl Lockstep {
                     if let Some(f) = self.host.seal(rv.id, &msg) {
                         self.world.send_to_robot(rv.id, &f);
                     }
+                    sent.push((rv.id, msg));
                 }
+                crate::record::observe(t, &self.world, &view, &sent);
             }
             self.world.step();
             self.host.pump(&mut self.world);

@@ -258,10 +258,12 @@ async fn run_assembly(
 ) -> anyhow::Result<assemble::AssemblyReport> {
     if lockstep {
         let runs = runs.to_path_buf();
-        tokio::task::spawn_blocking(move || {
-            assemble::run_scenario_lockstep(scenario, sim, &runs, limit)
+        let (report, mcap) = tokio::task::spawn_blocking(move || {
+            puzzlebot_host::record::run_scenario_lockstep(scenario, sim, &runs, limit)
         })
-        .await?
+        .await??;
+        eprintln!("recording: {}", mcap.display());
+        Ok(report)
     } else {
         assemble::run_scenario(scenario, sim, runs, limit, None).await
     }
