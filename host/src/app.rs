@@ -153,7 +153,8 @@ pub async fn start_host(fleet: &Fleet) -> anyhow::Result<(FleetLink, PoseInput)>
         cfg.allowed = Some(c.robots.iter().map(|r| r.id).collect::<BTreeSet<_>>());
     }
     let link = FleetLink::start(fleet.key.clone(), cfg).await?;
-    let epoch = tokio::time::Instant::now();
+    // One clock: pose times count from the link's epoch, as the control loop's do.
+    let epoch = link.epoch();
     let poses = match c.pose.source {
         PoseSourceKind::Pbp1 => PoseInput::start(c.pose.bind, Pbp1Decoder, epoch).await?,
         PoseSourceKind::Natnet => {

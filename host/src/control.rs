@@ -42,8 +42,9 @@ pub struct FleetView {
     /// Online robots with proven sessions.
     pub robots: Vec<RobotView>,
     /// How long after this tick the controller's commands are measured to take effect (s):
-    /// half the link's smoothed round trip on a real fleet, the measured delay of applied
-    /// commands in lockstep. Controllers predict poses this far ahead.
+    /// on a real fleet the controller's own measured update time (its commands leave after
+    /// it) plus half the link's smoothed round trip, in lockstep the measured delay of
+    /// applied commands. Controllers predict poses this far ahead.
     pub latency_s: f64,
 }
 
@@ -384,6 +385,12 @@ pub struct RunSummary {
     pub tracking: BTreeMap<RobotId, TrackingStats>,
     /// Link statistics per robot at the end.
     pub link: BTreeMap<RobotId, crate::link::LinkStats>,
+    /// Mean time of one [`Controller::update`] (ms): part of the command latency.
+    pub update_ms_mean: f64,
+    /// Longest [`Controller::update`] (ms).
+    pub update_ms_max: f64,
+    /// Command periods that passed without a tick (the loop ran late: a loaded machine).
+    pub missed_ticks: u64,
 }
 
 impl RunSummary {
@@ -407,6 +414,10 @@ struct TickRecord<'a> {
     wheel_target_rpm: Option<[f64; 2]>,
     telemetry: Option<&'a puzzlebot_protocol::messages::Telemetry>,
 }
+
+/// Weight of each new update time in the smoothed one (as the lockstep loop smooths its
+/// measured command delay).
+const UPDATE_SMOOTHING: f64 = 0.2;
 
 /// Optional source of ground-truth positions (simulation): id → [x, y, θ].
 pub type TruthProbe = Box<dyn Fn() -> BTreeMap<RobotId, [f64; 3]> + Send>;
@@ -474,6 +485,11 @@ impl ControlLoop {
             controller: controller.name().to_string(),
             ..RunSummary::default()
         };
+        // The controller's update time, smoothed (s): its commands leave that much after the
+        // poses of its view were taken, so it is part of the latency it has to predict over.
+        let mut update_s: Option<f64> = None;
+        let (mut updates, mut update_sum) = (0u64, 0.0);
+        let mut last_tick: Option<f64> = None;
         loop {
             tick.tick().await;
             let now = self.link.now();
@@ -482,6 +498,10 @@ impl ControlLoop {
                 break;
             }
             summary.ticks += 1;
+            if let Some(last) = last_tick {
+                summary.missed_ticks += ((now - last) / dt - 0.5).max(0.0) as u64;
+            }
+            last_tick = Some(now);
             if let Some(pb) = progress {
                 pb.set_position((t * 10.0) as u64);
             }
@@ -496,7 +516,8 @@ impl ControlLoop {
             let mut view = FleetView {
                 t: now,
                 robots: Vec::new(),
-                latency_s: rtts.get(rtts.len() / 2).map_or(0.0, |ms| 0.5e-3 * ms),
+                latency_s: rtts.get(rtts.len() / 2).map_or(0.0, |ms| 0.5e-3 * ms)
+                    + update_s.unwrap_or(0.0),
             };
             for s in &online {
                 let kind = s.kind.unwrap_or(RobotKind::NonPilot);
@@ -532,6 +553,11 @@ impl ControlLoop {
             }
             if now >= next_ctrl {
                 desired = controller.update(&view);
+                let took = (self.link.now() - now).max(0.0);
+                update_s = Some(update_s.map_or(took, |u| u + UPDATE_SMOOTHING * (took - u)));
+                updates += 1;
+                update_sum += took;
+                summary.update_ms_max = summary.update_ms_max.max(took * 1e3);
                 for r in controller.hand_requests() {
                     if let Some(hand) = self.hand.as_mut() {
                         hand(&r);
@@ -642,6 +668,9 @@ impl ControlLoop {
         }
         self.link.stop_all().await;
         summary.duration = self.link.now() - start;
+        if updates > 0 {
+            summary.update_ms_mean = update_sum / updates as f64 * 1e3;
+        }
         for (id, r) in robots {
             let mut s = r.stats;
             if s.samples > 0 {

@@ -265,6 +265,12 @@ impl FleetLink {
         self.inner.t(Instant::now())
     }
 
+    /// When the link started: the zero of [`FleetLink::now`]. A pose input stamps its
+    /// poses from the same instant, so a pose's age is `now() - pose.t`.
+    pub fn epoch(&self) -> Instant {
+        self.inner.epoch
+    }
+
     /// Rates in force.
     pub fn rates(&self) -> Rates {
         self.inner.config.rates

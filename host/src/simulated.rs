@@ -48,12 +48,8 @@ impl SimHarness {
                 .collect::<BTreeSet<_>>(),
         );
         let link = FleetLink::start(key.clone(), cfg).await?;
-        let poses = PoseInput::start(
-            "127.0.0.1:0".parse()?,
-            Pbp1Decoder,
-            tokio::time::Instant::now(),
-        )
-        .await?;
+        // One clock: pose times count from the link's epoch, as the control loop's do.
+        let poses = PoseInput::start("127.0.0.1:0".parse()?, Pbp1Decoder, link.epoch()).await?;
         let params = scenario.params.clone();
         let fleet = SimFleet::start(
             scenario,
