@@ -68,19 +68,10 @@ fn row(poses: &[(RobotId, &str, [f64; 3])]) -> String {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "the join of the two 2-robot trains can circle until the formation times out (2 of 6 CI runs on 2026-12-02); the lockstep version runs in CI"]
-// Real time over loopback. Ignored until session 15 (history: 23 of 25 runs in session 7,
-// 14 of 15 in session 8, 4 of 4 in session 9, 14 of 14 and 19 of 20 in session 14; the
-// failures: robot 2 ending the turn 0.1-0.26 rad ahead of robot 1, once the join of the two
-// 2-robot segments circling for 40 s). Since the train's members are towed as trailers
-// (`Role::Hitch`), measured 2026-12-02: 31 of 31 runs alone (15 with both cores loaded by
-// busy loops) and 17 of 17 with the rest of this file in parallel, as CI runs it (11 and 3
-// of them on the final code, whose towed members' MPC fits their twist); the lockstep
-// version passes 118 of 120 seeds over 0, 20 and 40 ms. Session 16: one CI run failed on the
-// circling join (the two 2-robot trains aligning towards each other for 38 s); the file then
-// passed 40 of 40 times as CI runs it, and a later CI run failed the same way: ignored again
-// (2 of 6 CI runs that day). Not reproduced in lockstep (108 runs from the start and from
-// the failing run's state at 1.6 s; making either train hold still failed 11–33 of 60).
+// Real time over loopback: two 2-robot trains form and then join, and the line drives and
+// turns as a train. The host predicts every pose over the latency it measures (its own
+// update time plus the link's half round trip); the lockstep version
+// (`host/tests/assembly_lockstep.rs`) covers many seeds and latencies deterministically.
 async fn four_robots_form_a_line_and_hold_it_while_it_drives_and_turns() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
@@ -141,11 +132,9 @@ move = { velocity = [0.05, 0.1667], duration_s = 5.4 }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-// Real time over loopback, measured 2026-12-01: 14 of 14 runs (11 idle, 3 with both cores
-// loaded by busy loops), then with a head seated in 2 of the last 3 updates 10 of 10 (4
-// loaded); ignored until then (earlier versions: 11 of 16
-// when the host could count a pair connected that the simulator never coupled, then 14 of
-// 14); the lockstep version passes 48 of 48 seeds at 0 and 20 ms.
+// Real time over loopback. A head is counted seated when it is seen so in two of the last
+// three pose updates: over a network the two robots' poses can be from different instants,
+// and the pair must not count connected while the simulator has it apart.
 async fn four_robots_form_a_two_by_two_mesh() {
     // Slots of the 2-row mesh (mm): (-37.5,-25) (12.5,-25) (-12.5,25) (37.5,25), spread 30 mm.
     let fleet = sim(&row(&[
@@ -214,11 +203,8 @@ timeout_s = 25
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-// Real time over loopback, measured 2026-12-01: 14 of 14 runs (11 idle, 3 with both cores
-// loaded), then with a head seated in 2 of the last 3 updates 9 of 9 (3 loaded); ignored
-// until then (earlier versions passed 11 of 11 and then
-// failed a clean-clone CI run, or 6 of 8 loaded, when the host counted a pair connected
-// that the simulator had apart); the lockstep version passes 24 of 24 seeds at 30 ms.
+// Real time over loopback: robot 4 is switched off a second in; the host declares it lost
+// and forms the line of the other three, coupled in the simulator's ground truth.
 async fn a_robot_lost_mid_formation_is_replanned_without() {
     let fleet = sim(&row(&[
         (1, "NonPilot", [0.0, 0.0, 0.0]),
