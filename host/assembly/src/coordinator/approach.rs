@@ -1,16 +1,10 @@
 //! How a lone robot gets to its place: the staged approaches (side docking, anchor approach to
-//! a partner that holds), the routes round other robots that bring it to their start, and the
-//! point law near waypoints.
+//! a partner that holds) and the lane train that brings a second pilot to a grown assembly.
 
+use super::routing::{APPROACH_GAP, ROUTE_CLEARANCE};
 use super::*;
 use crate::assign::LANE_TOLERANCE;
 
-/// Centre distance a robot driving to the start of an approach keeps from every other robot
-/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
-pub(super) const ROUTE_CLEARANCE: f64 = 0.075;
-/// Smallest centre distance of the start of an approach to another robot (m): beside an
-/// assembly's side (50 mm bodies, 6 mm off), not closer.
-const APPROACH_GAP: f64 = 0.05;
 /// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
 /// the robot backs off to the stand-off and comes in again.
 const IN_PROGRESS: f64 = 0.003;
@@ -36,24 +30,52 @@ const FLUSH_OFFSET: f64 = 0.004;
 const FLUSH_CONVERGE: f64 = 0.02;
 /// Side docking: lateral distance kept from the partner's side (m) until the last
 /// [`DOCK_CONVERGE`] before the place: above the knob's 1.5 mm seat gap where the knob passes
-/// the wrong hole. (Lockstep, the grown demo over seeds 1–24 at 0 and 20 ms: with 0 / 2.5 / 3 /
-/// 4 mm it formed 30 / 31 / 35 / 30 of 48; at 4 mm a 2×2 mesh's docking robot swept over its
-/// place 2 mm off the side for 40 s.)
+/// the wrong hole, and small enough that the robot still reaches its place (held further off,
+/// a docking robot sweeps over its place without its knob finding the hole).
 const DOCK_HOLD: f64 = 0.003;
 /// Side docking: distance before the place where the robot closes [`DOCK_HOLD`] (m): past the
 /// wrong hole 25 mm before the place.
 const DOCK_CONVERGE: f64 = 0.022;
 /// Side docking: a heading error (rad) above which the robot, still short of
-/// [`DOCK_CONVERGE`], turns on the spot before it drives on (at 0.12–0.2 the demo's seed 5
-/// still closed the hold and clicked in one hole early).
+/// [`DOCK_CONVERGE`], turns on the spot before it drives on: driving with a larger error
+/// closes the hold and clicks the knob in one hole early.
 const DOCK_TURN_FIRST: f64 = 0.08;
 /// Speed of the robot hitched behind a lane train's leader relative to the leader's
 /// ([`Coordinator::lane_train_roles`]).
 const LANE_TRAIL: f64 = 0.6;
 /// Fastest turn of a non-pilot leading a lane train (rad/s).
 const LANE_TURN: f64 = 0.5;
-/// How far around the robots a route may swing out (m).
-const ROUTE_MARGIN: f64 = 0.3;
+
+/// A docking robot relative to its final pose (see [`Role::Dock`]).
+pub(super) struct DockFrame {
+    /// Final pose: the two connection points on each other.
+    pub(super) fin: Pose2,
+    /// The robot's position in the final pose's frame (m).
+    pub(super) here: [f64; 2],
+    /// Unit normal of its connection point, own frame (x, y).
+    pub(super) normal: (f64, f64),
+    /// Outward distance from the final line (the partner's side, extended) (m).
+    pub(super) lat: f64,
+}
+
+/// Where a robot's direct-drive manoeuvre for a pair stands (kept between ticks, per pair).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Manoeuvre {
+    /// Side docking: sweeping along the side in this direction (±1).
+    Sweep(f64),
+    /// Anchor approach: at the stand-off, turning onto the axis.
+    Turning,
+    /// Anchor approach: driving along the axis (`dir` ±1: forwards / backwards), in or
+    /// backing off; going in, the nearest it got (`best`, m out) and since when (s).
+    In {
+        /// ±1.
+        dir: f64,
+        /// Smallest distance out so far.
+        best: f64,
+        /// Time of the last progress.
+        since: f64,
+    },
+}
 
 impl Coordinator {
     /// Where docking robot `me` of side pair `i` is (see [`DockFrame`]).
@@ -178,9 +200,9 @@ impl Coordinator {
         let err = wrap_angle(yaw_rel - target);
         if hold > 0.0 && err.abs() > DOCK_TURN_FIRST {
             // Still turning (the turn onto the approach line carries on past its end):
-            // driving now would close the hold at once (seen: 0.3 rad towards the side at
-            // the start, flush 25 mm before the place). Only on the way in: sweeping over
-            // the place, turns on the spot at each reversal kept robots from clicking in.
+            // driving now would close the hold at once (flush with the side at the wrong
+            // hole). Only on the way in: sweeping over the place, turns on the spot at each
+            // reversal would keep robots from clicking in.
             let w = (d.k_theta * err.abs()).clamp(d.min_turn, 1.5) * -err.signum();
             return Some(Role::Dock { pair: i, v: 0.0, w });
         }
@@ -197,9 +219,8 @@ impl Coordinator {
     /// [`ROUTE_CLEARANCE`] (beside an assembly the axis may run between robots). When the
     /// axis runs between robots, the line follower gets up to [`FLUSH_RUN_IN`] more to
     /// converge before the robot slides in beside them (askew, it would push them): as much
-    /// of it as keeps the stand-off clear (the full run-in put demo seed 8's 4 cm from a
-    /// waiting robot, where the route refuses to go: the robot held until the step timed
-    /// out).
+    /// of it as keeps the stand-off clear (the full run-in can put the stand-off beside a
+    /// waiting robot, where the route refuses to go and the robot would hold for good).
     pub(super) fn approach_standoff(&self, fin: &Pose2, s: f64, me: RobotId) -> f64 {
         let d = self.cfg.dock;
         let others = self.others(me);
@@ -342,8 +363,8 @@ impl Coordinator {
         });
         // Measured from the robots themselves, not from the axis: the place is computed from
         // the partner, and a row a few hundredths of a radian off its neighbour's heading
-        // stands millimetres nearer the axis at its far end (seen: flush there, a knob
-        // clicked in beside the wrong robot).
+        // stands millimetres nearer the axis at its far end (flush there, a knob would
+        // click in beside the wrong robot).
         let width = f64::from(self.geometry.width);
         let (mut low, mut high) = (f64::NEG_INFINITY, f64::INFINITY);
         for o in self
@@ -452,11 +473,11 @@ impl Coordinator {
         // A tractor and its trailer: the robot in front in the direction of travel leads,
         // following the lane with the line follower; the one hitched behind it at the
         // anchor (a pivot) drives straight a little slower, so the leader pulls it (THESIS
-        // 5.4.1 drives a pilot by its linear velocity only). Measured in the simulator with
-        // the pair 0.035 rad bent: both at 0.05 m/s the bend grew to 0.9 rad in 6 s (the
-        // trailer pushes the leader round the pivot); each steering itself, or both given
-        // the one turn rate, the train jackknifed; with the trailer slower it stays within
-        // a few hundredths. A pilot leading turns no tighter than its butterfly (3.5.1).
+        // 5.4.1 drives a pilot by its linear velocity only). At equal speeds the trailer
+        // pushes the leader round the pivot and the bend grows; each steering itself, or
+        // both given the one turn rate, the train jackknifes; with the trailer slower the
+        // bend stays within a few hundredths of a radian. A pilot leading turns no tighter
+        // than its butterfly (3.5.1).
         let lead = if dir == s { me } else { pilot };
         let follow = if lead == me { pilot } else { me };
         let kl = self.robots.get(&lead)?.pose;
@@ -521,77 +542,6 @@ impl Coordinator {
         };
         (segments.get(&me) == Some(own) && segments.get(&other) == Some(home))
             .then_some((me, other))
-    }
-
-    /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
-    /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
-    /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
-    pub(super) fn point_drive(&self, pose: &Pose2, goal: [f64; 2]) -> (f64, f64) {
-        let d = self.cfg.dock;
-        let (dx, dy) = (goal[0] - pose.x, goal[1] - pose.y);
-        let mut e = wrap_angle(dy.atan2(dx) - pose.yaw);
-        let mut dir = 1.0;
-        if e.abs() > std::f64::consts::FRAC_PI_2 {
-            e = wrap_angle(e + std::f64::consts::PI);
-            dir = -1.0;
-        }
-        if e.abs() > 0.3 {
-            return (
-                0.0,
-                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
-            );
-        }
-        (dir * d.speed, d.k_theta * e)
-    }
-
-    /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
-    /// point law near it (the MPC's point goal stalls beside the robot).
-    pub(super) fn drive_to(&self, i: usize, pose: &Pose2, p: [f64; 2]) -> Role {
-        if (p[0] - pose.x).hypot(p[1] - pose.y) > 0.15 {
-            return Role::GoTo {
-                goal: Pose2::new(p[0], p[1], pose.yaw),
-                use_yaw: false,
-            };
-        }
-        let (v, w) = self.point_drive(pose, p);
-        Role::Dock { pair: i, v, w }
-    }
-
-    /// Centres of every live robot but `me`.
-    pub(super) fn others(&self, me: RobotId) -> Vec<[f64; 2]> {
-        self.robots
-            .iter()
-            .filter(|(id, _)| **id != me && !self.lost.contains(id))
-            .map(|(_, k)| k.pose.xy())
-            .collect()
-    }
-
-    /// The next waypoint of robot `me` on its way to `goal` round every other robot
-    /// ([`crate::route`]); None when there is no way (it waits).
-    pub(super) fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
-        self.next_waypoint(me, goal, APPROACH_GAP)
-    }
-
-    /// The next waypoint of dispersing robot `me` on its way to `goal` round every other
-    /// robot. Unlike [`Self::route_step`] a goal beside another robot is allowed (robots
-    /// dispersing from an assembly start and end close together), so this only answers None
-    /// when no way is found; the robot then heads for its goal directly.
-    pub(super) fn disperse_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
-        self.next_waypoint(me, goal, 0.0)
-    }
-
-    /// First waypoint of [`route`] for `me` round every other robot, the goal at least
-    /// `goal_gap` from any of them.
-    fn next_waypoint(&self, me: RobotId, goal: [f64; 2], goal_gap: f64) -> Option<[f64; 2]> {
-        let start = self.robots.get(&me)?.pose.xy();
-        let obstacles = self.others(me);
-        let field = Field {
-            obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
-        };
-        route(start, goal, &field, goal_gap, ROUTE_MARGIN)?
-            .first()
-            .copied()
     }
 
     /// For a side pair with a lone non-pilot on one side: that robot (it docks; the other

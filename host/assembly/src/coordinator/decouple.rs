@@ -34,8 +34,8 @@ const KNOB_PLACE_TOLERANCE: f64 = 0.008;
 const KNOB_LIFT_REPEAT_S: f64 = 10.0;
 
 /// A released anchor pair drives apart until the head is this far out of the opening (m):
-/// held where it popped, a wiggling neighbour pushed it back in (measured: 3 of 4 demo
-/// meshes re-coupled a released pair while the rest of the train wiggled).
+/// held where it popped, a wiggling neighbour can push it back in while the rest of the
+/// train wiggles.
 pub const DECOUPLE_CLEAR: f64 = 0.015;
 
 impl Coordinator {
@@ -216,8 +216,8 @@ impl Coordinator {
     }
 
     /// Knobs seated where the plan does not put those two robots side by side (a robot
-    /// joining along a side that an earlier knock left bent clicked a knob into the wrong
-    /// robot and stood rigidly locked there until the step timed out): a knob holds more than
+    /// joining along a side that an earlier knock left bent can click a knob into the wrong
+    /// robot and stand rigidly locked there): a knob holds more than
     /// the robots can pull (THESIS 5.5.3), so a person is asked to lift it
     /// ([`EventKind::LiftKnobs`]; in simulation the simulator's hand does it), at most every
     /// [`KNOB_LIFT_REPEAT_S`] per pair. Knobs between planned neighbours at their places in
@@ -344,5 +344,164 @@ impl Coordinator {
                 self.push(t, EventKind::UnplannedCoupling { anchor, opening });
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coordinator::fixtures::*;
+
+    /// `robots` with the robots `ids` moved by (dx, dy).
+    fn moved(robots: &[RobotState], ids: &[RobotId], dx: f64, dy: f64) -> Vec<RobotState> {
+        robots
+            .iter()
+            .map(|r| {
+                let mut r = *r;
+                if ids.contains(&r.id) {
+                    r.pose.x += dx;
+                    r.pose.y += dy;
+                }
+                r
+            })
+            .collect()
+    }
+
+    /// `robots` formed into `spec`, then decoupling every pair from t = 5 s: (coordinator,
+    /// poses, the pairs).
+    fn decoupling(
+        spec: ShapeSpec,
+        robots: &[RobotState],
+    ) -> (Coordinator, Vec<RobotState>, Vec<usize>) {
+        let (mut c, goal) = formed(spec, robots);
+        let pairs = c.coupled_pairs();
+        c.set_mode(
+            5.0,
+            Mode::Decouple {
+                pairs: pairs.clone(),
+                wiggle: Wiggle::default(),
+                start: 5.0,
+            },
+        );
+        (c, goal, pairs)
+    }
+
+    fn wiggling(tick: &Tick) -> Vec<(RobotId, f64)> {
+        tick.tasks
+            .iter()
+            .filter_map(|t| match t.role {
+                Role::Velocity { w, .. } => Some((t.robot, w)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_knob_clicked_in_where_the_plan_has_none_is_lifted_by_hand() {
+        let (mut c, _, kinds) = mesh_2x2_of_four_apart();
+        let lifts = |tick: &Tick| -> Vec<Vec<(RobotId, RobotId)>> {
+            tick.events
+                .iter()
+                .filter_map(|e| match &e.kind {
+                    EventKind::LiftKnobs { pairs, .. } => Some(pairs.clone()),
+                    _ => None,
+                })
+                .collect()
+        };
+        // The finished mesh: its rows' knobs sit in each other's holes where the shape has
+        // them side by side (more than the one planned knob pair): none is lifted.
+        let mut robots = at_goals(&c, &kinds);
+        let tick = c.tick(0.1, &robots);
+        assert!(lifts(&tick).is_empty(), "{:?}", tick.events);
+        // The back robot of the second row (slot 2, at (−12.5, 25) mm) one hole (25 mm)
+        // further back, beside the first row's back robot: its holes take that robot's
+        // knobs, at a place the plan does not have.
+        let plan = c.plan().unwrap().clone();
+        let moved = plan.slot_robot[2];
+        for r in robots.iter_mut().filter(|r| r.id == moved) {
+            r.pose = r.pose.compose(&Pose2::new(-0.025, 0.0, 0.0));
+        }
+        let tick = c.tick(0.2, &robots);
+        let asked = lifts(&tick);
+        assert!(
+            asked.len() == 1 && asked[0].iter().all(|&(a, b)| a == moved || b == moved),
+            "{asked:?}"
+        );
+        // Asked once, not again every tick.
+        let tick = c.tick(0.3, &robots);
+        assert!(lifts(&tick).is_empty());
+    }
+
+    #[test]
+    fn a_mesh_is_dissolved_by_lifting_its_knobs_then_wiggling_its_anchors() {
+        let (mut c, goal, pairs) = decoupling(ShapeSpec::Mesh { rows: 2 }, &four_apart());
+        let knob = *pairs
+            .iter()
+            .find(|&&i| c.pairs()[i].pair.kind == PairType::KnobHole)
+            .expect("a knob pair");
+        // A person is asked to lift the knob pair; until it is out, nobody wiggles (a
+        // knob-locked robot cannot turn).
+        let tick = c.tick(5.1, &goal);
+        let (ka, kb) = (c.pairs()[knob].pair.a, c.pairs()[knob].pair.b);
+        assert!(
+            tick.events.iter().any(|e| matches!(&e.kind,
+                EventKind::LiftKnobs { robots, pairs } if robots.len() == 4 && pairs == &[(ka, kb)])),
+            "{:?}",
+            tick.events
+        );
+        assert!(wiggling(&tick).is_empty(), "{:?}", wiggling(&tick));
+        // The hole robot's row set down 3 cm away: the knob pair is released and each row's
+        // anchor robot wiggles.
+        let row_b: Vec<RobotId> = goal
+            .iter()
+            .filter(|r| (r.pose.y - goal.iter().find(|q| q.id == kb).unwrap().pose.y).abs() < 0.01)
+            .map(|r| r.id)
+            .collect();
+        let lifted = moved(&goal, &row_b, 0.0, 0.03);
+        let tick = c.tick(5.2, &lifted);
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::PairReleased { a, b } if (a, b) == (ka, kb))));
+        let w = wiggling(&c.tick(5.3, &lifted));
+        assert_eq!(w.len(), 2, "one anchor robot per row: {w:?}");
+    }
+
+    #[test]
+    fn a_train_is_wiggled_open_one_pair_per_robot_and_a_released_pair_drives_clear() {
+        let robots = [
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.2, 0.0, 0.0),
+            np(3, 0.4, 0.0, 0.0),
+        ];
+        let (mut c, goal, pairs) = decoupling(ShapeSpec::Line, &robots);
+        assert_eq!(pairs.len(), 2);
+        // The middle robot is in both pairs: one of them wiggles at a time.
+        let tick = c.tick(5.1, &goal);
+        let w = wiggling(&tick);
+        assert_eq!(w.len(), 1, "{w:?}");
+        let first = pairs
+            .iter()
+            .map(|&i| c.pairs()[i].pair)
+            .find(|p| p.a == w[0].0)
+            .expect("the wiggler's pair");
+        // Its anchor pops 8 mm out: released, but not clear. It drives straight on and the
+        // other pair waits.
+        let (s, co) = goal
+            .iter()
+            .find(|r| r.id == first.a)
+            .unwrap()
+            .pose
+            .yaw
+            .sin_cos();
+        let out = moved(&goal, &[first.a], 0.008 * co, 0.008 * s);
+        c.tick(5.2, &out);
+        let w = wiggling(&c.tick(5.3, &out));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].0 == first.a && w[0].1 == 0.0, "drives clear: {w:?}");
+        // Clear: the other pair wiggles.
+        let clear = moved(&goal, &[first.a], 0.03 * co, 0.03 * s);
+        let w = wiggling(&c.tick(5.4, &clear));
+        assert!(w.len() == 1 && w[0].0 != first.a, "{w:?}");
     }
 }

@@ -203,7 +203,7 @@ impl Coordinator {
         let reach = if train {
             -s * f.here[0]
         } else {
-            self.cfg.dock.standoff + super::approach::ROUTE_CLEARANCE
+            self.cfg.dock.standoff + super::routing::ROUTE_CLEARANCE
         };
         self.robots
             .iter()
@@ -225,10 +225,10 @@ impl Coordinator {
                 let on_axis = out > 0.0 && out < reach && o[1].abs() < half;
                 // Too near the stand-off for the route there (it keeps its clearance).
                 let dx = out - self.cfg.dock.standoff;
-                let at_standoff = !train && dx.hypot(o[1]) < super::approach::ROUTE_CLEARANCE;
+                let at_standoff = !train && dx.hypot(o[1]) < super::routing::ROUTE_CLEARANCE;
                 (on_axis || at_standoff).then(|| {
                     let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
-                    let clear = super::approach::ROUTE_CLEARANCE + STANDOFF_MARGIN;
+                    let clear = super::routing::ROUTE_CLEARANCE + STANDOFF_MARGIN;
                     let lat =
                         (half + MAKE_WAY_MARGIN).max((clear * clear - dx * dx).max(0.0).sqrt());
                     let to = f.fin.transform([o[0], side * lat]);
@@ -346,7 +346,7 @@ impl Coordinator {
     /// other assembly moving), the nearest first. Such assemblies appear when a coupling of
     /// the grown one comes apart, or a planned pair between two robots outside it couples out
     /// of turn (a robot docking beside the assembly backing into one waiting nearby); without
-    /// this every robot waited until the step timed out.
+    /// this every robot would wait for good.
     fn rejoin_grown(&self, segments: &BTreeMap<RobotId, usize>, home: usize) -> Option<usize> {
         (0..self.pairs.len())
             .filter(|&i| {
@@ -470,5 +470,98 @@ impl Coordinator {
                 self.completable(next, &rest, seen, budget)
             })
         })
+    }
+}
+
+impl Coordinator {
+    /// Forming: a lone non-pilot that waits in the corridor of an active pair's staged
+    /// approach ([`Coordinator::approach_blockers`]) steps out of it. The approach chooser
+    /// skips blocked pairs, but growing often has only one pair to choose, and a robot
+    /// docking at a lone pilot would otherwise push against one waiting in its lane.
+    pub(super) fn make_way(
+        &self,
+        tasks: &mut [RobotTask],
+        segments: &BTreeMap<RobotId, usize>,
+        active: &[usize],
+    ) {
+        if self.mode != Mode::Form {
+            return;
+        }
+        for &i in active {
+            if !matches!(
+                self.pairs.get(i).map(|p| p.status),
+                Some(PairStatus::Decoupled | PairStatus::HeadAligned)
+            ) {
+                continue;
+            }
+            for (id, goal, _) in self.approach_blockers(i, segments) {
+                if let Some(task) = tasks.iter_mut().find(|t| {
+                    t.robot == id
+                        && self.lone_non_pilot(id, segments)
+                        && matches!(t.role, Role::Hold | Role::Wait)
+                }) {
+                    task.role = Role::GoTo {
+                        goal,
+                        use_yaw: false,
+                    };
+                    task.leader = Some(id);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coordinator::fixtures::*;
+
+    #[test]
+    fn a_lone_robot_does_not_approach_through_a_robot_on_its_axis() {
+        // A line of four: the rear pair is connected, the robot second from the front is
+        // 30 mm off its place and the front robot stands at its own place, i.e. on the axis
+        // along which the second robot would reverse its anchor into the rear pair.
+        let mut c = coordinator();
+        let robots: Vec<RobotState> = (0..4)
+            .map(|k| np(k + 1, -0.06 * f64::from(k), 0.0, 0.0))
+            .collect();
+        let kinds: BTreeMap<_, _> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        c.form(0.0, ShapeSpec::Line, &robots, Some(0.0)).unwrap();
+        let mut poses = at_goals(&c, &kinds);
+        poses.sort_by(|a, b| b.pose.x.total_cmp(&a.pose.x));
+        let (front, second, third) = (poses[0].id, poses[1].id, poses[2].id);
+        poses[1].pose.y += 0.03;
+        for k in 0..5 {
+            c.tick(0.1 * f64::from(k), &poses);
+        }
+        let pair = |a: RobotId, b: RobotId| {
+            c.pairs()
+                .iter()
+                .position(|tp| (tp.pair.a, tp.pair.b) == (a, b) || (tp.pair.a, tp.pair.b) == (b, a))
+                .unwrap()
+        };
+        let (join, ahead) = (pair(second, third), pair(front, second));
+        assert_eq!(
+            c.pairs()[join].pair.a,
+            second,
+            "the second robot's anchor: {:?}",
+            c.pairs()
+        );
+        assert_eq!(c.pairs()[join].status, PairStatus::Decoupled);
+        let segments = c.segments();
+        assert!(
+            c.approach_blocked(join, &segments),
+            "the front robot is on the axis"
+        );
+        let tick = c.tick(0.5, &poses);
+        assert!(
+            tick.active.contains(&ahead) && !tick.active.contains(&join),
+            "the pair with the front robot goes first: active {:?}",
+            tick.active
+        );
+        // With the front robot out of the way the approach is free again.
+        poses[0].pose.y += 0.1;
+        c.tick(0.6, &poses);
+        assert!(!c.approach_blocked(join, &c.segments()));
     }
 }

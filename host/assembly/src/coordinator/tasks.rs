@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// Growing: how far an assembly may drive ahead to straighten before a robot docks at its side
+/// (m, per pair).
+const GROW_STRAIGHTEN: f64 = 0.1;
+
 impl Coordinator {
     pub(super) fn align_role(&self, i: usize, me: RobotId) -> Role {
         let tp = &self.pairs[i];
@@ -71,13 +75,10 @@ impl Coordinator {
                 (BTreeSet::new(), BTreeMap::new())
             };
             // A train (a chain of anchors, no knobs) moved by a velocity or trajectory
-            // behaviour: the members behind the leader drive as trailers. Measured in
-            // lockstep, the 4-robot line over seeds 1-40 at 0, 20 and 40 ms: 113 → 118 of
-            // 120 (no follower ends a turn ahead of its leader any more; the two left lost a
-            // pair while forming and turned less after re-coupling). Not in a mesh, whose
-            // members hanging at anchors stand beside others (the two-pilot demo, seeds
-            // 1-24: 22 → 19 finish; dissolving after the drive timed out), and not while
-            // forming, where a bent train straightens behind its head (demo 22 → 21).
+            // behaviour: the members behind the leader drive as trailers, so no follower
+            // ends a turn ahead of its leader. Not in a mesh, whose members hanging at
+            // anchors stand beside others (as trailers they push into them), and not while
+            // forming, where a bent train straightens behind its head.
             let train = self
                 .live_pairs(&members[&seg])
                 .iter()
@@ -220,9 +221,7 @@ impl Coordinator {
                     }
                     // An assembly joined at its anchor by a lone non-pilot holds still, as a
                     // growing one does: the lone robot makes the staged anchor approach. Moved
-                    // by the MPC, a coupled segment bends its joints and drags its members
-                    // (lockstep, seeds 1-24: the lost-robot line 21 → 24 of 24 at 30 ms, 22 → 24 at
-                    // 0 ms; the 2×2 mesh 23 → 24 of 24 at 40 ms).
+                    // by the MPC, a coupled segment bends its joints and drags its members.
                     let lone_joins = self
                         .lone_approach(i, segments)
                         .is_some_and(|(_, partner)| members[&segments[&partner]].len() > 1);
@@ -379,11 +378,9 @@ impl Coordinator {
             Mode::Disperse { goals } => {
                 for (id, goal) in goals {
                     // A non-pilot drives round the others (the MPC has no obstacle terms: two
-                    // robots whose goals lay behind each other pushed head-on until the step
-                    // timed out); a pilot drives straight (THESIS 5.4.1). Measured in lockstep,
-                    // the grown demo (grow_mesh.toml, absolute goals) over seeds 1–16: 12 → 16
-                    // finish (seeds 1–32: 27, no disperse failure left); letting the robot
-                    // with the higher id wait while two near each other both go round: 26.
+                    // robots whose goals lie behind each other would push head-on); a pilot
+                    // drives straight (THESIS 5.4.1). Both of two robots near each other go
+                    // round: letting one of them wait instead finishes fewer dispersals.
                     let to = if self.kind_of(*id) == RobotKind::NonPilot {
                         self.disperse_step(*id, goal.xy()).unwrap_or(goal.xy())
                     } else {
@@ -421,5 +418,87 @@ impl Coordinator {
             })
             .collect();
         (tasks, active)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coordinator::fixtures::*;
+
+    #[test]
+    fn spreading_out_a_robot_already_clear_of_the_others_stops_while_close_ones_go_on() {
+        // THESIS (2.4) pushes every robot away from the centre, faster the further it is:
+        // with `until_distance` a robot whose nearest neighbour is that far stops.
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.03, 0.0, 0.0),
+            np(3, 0.5, 0.0, 0.0),
+        ];
+        for until in [Some(0.1), None] {
+            let mut c = coordinator();
+            c.set_mode(
+                0.0,
+                Mode::Rendezvous {
+                    robots: vec![1, 2, 3],
+                    gain: 0.5,
+                    anti: true,
+                    until,
+                },
+            );
+            let tick = c.tick(0.0, &robots);
+            for id in [1, 2] {
+                assert!(
+                    matches!(role_of(&tick, id), Role::Velocity { v, .. } if v.abs() > 1e-3),
+                    "robot {id} moves away: {:?}",
+                    role_of(&tick, id)
+                );
+            }
+            match until {
+                Some(_) => assert_eq!(role_of(&tick, 3), &Role::Hold),
+                None => assert!(
+                    matches!(role_of(&tick, 3), Role::Velocity { v, .. } if *v > 0.1),
+                    "{:?}",
+                    role_of(&tick, 3)
+                ),
+            }
+        }
+    }
+
+    #[test]
+    fn dispersing_robots_that_must_pass_each_other_drive_round_not_through() {
+        // Robot 1's goal lies beyond robot 2 and robot 2's beyond robot 1 (the MPC has no
+        // obstacle terms: straight at their goals they pushed head-on until the step timed
+        // out); a robot with a free way heads straight for its goal.
+        let mut c = coordinator();
+        let robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.08, 0.0, std::f64::consts::PI),
+            np(3, 0.0, 0.5, 0.0),
+        ];
+        let goals: BTreeMap<RobotId, Pose2> = [
+            (1, Pose2::new(0.2, 0.0, 0.0)),
+            (2, Pose2::new(-0.12, 0.0, 0.0)),
+            (3, Pose2::new(0.2, 0.5, 0.0)),
+        ]
+        .into();
+        c.set_mode(0.0, Mode::Disperse { goals });
+        let tick = c.tick(0.0, &robots);
+        let target = |id| match &role_of(&tick, id) {
+            Role::GoTo { goal, .. } => *goal,
+            other => panic!("robot {id}: {other:?}"),
+        };
+        for id in [1, 2] {
+            let g = target(id);
+            assert!(
+                g.y.abs() > 0.02,
+                "robot {id} heads off the line between them: {g:?}"
+            );
+        }
+        let g3 = target(3);
+        assert!(
+            (g3.x - 0.2).abs() < 1e-12 && (g3.y - 0.5).abs() < 1e-12,
+            "{g3:?}"
+        );
     }
 }

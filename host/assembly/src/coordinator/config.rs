@@ -1,0 +1,112 @@
+//! Coordinator settings: status machine tolerances, timing, and the staged approach of side
+//! connections.
+
+use super::*;
+
+/// Staged approach of a side connection (see [`Role::Dock`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DockConfig {
+    /// Length of the approach (m).
+    pub run_in: f64,
+    /// How far outside the final place the approach starts (m); the line follower then
+    /// holds a smaller distance off the side until just before the place, past the wrong
+    /// hole 25 mm before it (`approach::DOCK_HOLD`).
+    pub offset: f64,
+    /// Approach speed (m/s): above the wheels' start-up dead-band (20 RPM ≈ 0.036 m/s).
+    pub speed: f64,
+    /// Position tolerance of the approach's start (m).
+    pub capture: f64,
+    /// Heading per metre of lateral distance (rad/m): below 1 / (half a body length).
+    pub k_lat: f64,
+    /// Aim this far inside the partner's side (m), so the sides end up pressed together.
+    pub press: f64,
+    /// Largest heading towards the partner (rad).
+    pub max_heading: f64,
+    /// Heading gain: ω = −k_θ · heading error (1/s).
+    pub k_theta: f64,
+    /// An assembly bent more than this at an anchor (rad) straightens before a robot docks
+    /// at its side.
+    pub max_bend: f64,
+    /// The docking robot reverses after passing its place by this much (m): less than the
+    /// 25 mm to the next hole.
+    pub overshoot: f64,
+    /// A bent assembly straightens only while the docking robot is at least this far from
+    /// its side (m); nearer, the moving holes could catch its knobs at the wrong place.
+    pub clearance: f64,
+    /// Stand-off of an anchor approach to a waiting pilot, on its axis (m).
+    pub standoff: f64,
+    /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
+    pub min_turn: f64,
+    /// An anchor pair whose head stays inside the opening's guide, moving less than the
+    /// anchor's travel, for this long (s) while one of its robots drives away from the other
+    /// at the approach speed is coupled ([`tug`]): an uncoupled head would have left the
+    /// guide within (travel + seat) / speed ≈ 0.12 s; this is ten times that plus the harsh
+    /// profile's worst controller latency.
+    pub tug_s: f64,
+}
+
+impl Default for DockConfig {
+    fn default() -> Self {
+        DockConfig {
+            run_in: 0.10,
+            offset: 0.006,
+            speed: 0.05,
+            capture: 0.012,
+            k_lat: 20.0,
+            press: 0.0003,
+            max_heading: 0.2,
+            k_theta: 4.0,
+            max_bend: 0.04,
+            overshoot: 0.012,
+            clearance: 0.003,
+            standoff: 0.06,
+            min_turn: 0.9,
+            tug_s: 1.5,
+        }
+    }
+}
+
+/// Coordinator settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CoordinatorConfig {
+    /// Status machine tolerances.
+    pub tolerances: PairTolerances,
+    /// A planned robot unseen for this long is lost and the plan is recomputed (s).
+    pub lost_after_s: f64,
+    /// A pair starts only when every pair of a shorter centre distance is connected
+    /// (strict convex-first, THESIS 5.2.2: rows before the side joins).
+    pub strict_convex_first: bool,
+    /// MPC horizon samples for trajectory references.
+    pub horizon_steps: usize,
+    /// MPC step (s).
+    pub dt: f64,
+    /// Heading gain of the THESIS (3.2) point controller used by rendezvous.
+    pub heading_gain: f64,
+    /// Staged approach of side connections.
+    pub dock: DockConfig,
+    /// A formation counts as complete once every planned pair has stayed connected this long
+    /// (s): the last join can knock an earlier pair loose a moment after it connects.
+    pub form_settle_s: f64,
+    /// Smallest turning radius of a pilot (m,
+    /// [`puzzlebot_params::drive::Drive::min_turn_radius`]).
+    pub pilot_turn_radius: f64,
+}
+
+impl Default for CoordinatorConfig {
+    fn default() -> Self {
+        CoordinatorConfig {
+            tolerances: PairTolerances::default(),
+            lost_after_s: 1.0,
+            strict_convex_first: true,
+            horizon_steps: 10,
+            form_settle_s: 1.0,
+            dt: 0.1,
+            heading_gain: 1.0,
+            dock: DockConfig::default(),
+            pilot_turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::Pilot)
+                .min_turn_radius(),
+        }
+    }
+}

@@ -1,0 +1,488 @@
+//! Growing a shape around one robot: choosing the seed (and the pilot in its lane), and holding
+//! the grown assembly where it stands while a robot joins it.
+
+use super::*;
+
+impl Coordinator {
+    /// Start forming `spec` grown around one robot (`seed`; default: the pilot, else the
+    /// robot nearest the fleet's centre), which stays where it is: the shape is placed on it
+    /// ([`crate::assign::assign_around`]) and the other robots join its assembly one at a time, each alone,
+    /// by the staged approaches (stand off, turn, drive in), while the assembly holds still.
+    /// Slower than forming in parallel, but it needs no train to manoeuvre, so it works from
+    /// scattered starts. A lone pilot is not driven (THESIS 3.5.2) and moves straight only
+    /// (5.4.1), so with two pilots they must stand in one lane (the second behind the first,
+    /// facing the same way): the front one is the seed, a non-pilot couples to the other,
+    /// and the two drive straight up to the seed before the rest joins
+    /// ([`assign_around_lane`]). More pilots, or two out of lane, are an error.
+    pub fn form_grown(
+        &mut self,
+        t: f64,
+        spec: ShapeSpec,
+        robots: &[RobotState],
+        seed: Option<RobotId>,
+    ) -> Result<&Plan, PlanError> {
+        self.observe(t, robots);
+        let states = self.states();
+        let (seed, lane) = self.grow_seed(&states, seed)?;
+        let plan = assign_around_lane(&spec, &states, seed, lane, &self.geometry)?;
+        let heading = Some(plan.heading);
+        self.grow_lane = lane;
+        Ok(self.start_form(t, plan, heading, Some(seed)))
+    }
+
+    /// The seed of a grown shape and the pilot in its lane, if any ([`Coordinator::form_grown`]).
+    pub(super) fn grow_seed(
+        &self,
+        states: &[RobotState],
+        seed: Option<RobotId>,
+    ) -> Result<(RobotId, Option<RobotId>), PlanError> {
+        let pilots: Vec<&RobotState> = states
+            .iter()
+            .filter(|r| r.kind == RobotKind::Pilot)
+            .collect();
+        let too_many = PlanError::GrowPilots {
+            pilots: pilots.len().max(2),
+            radius: self.cfg.pilot_turn_radius,
+        };
+        match pilots[..] {
+            [] => {
+                let s = match seed {
+                    Some(s) => s,
+                    None => Self::central(states).ok_or(PlanError::NotEnoughRobots {
+                        needed: 1,
+                        available: 0,
+                    })?,
+                };
+                Ok((s, None))
+            }
+            [p] => match seed {
+                Some(s) if s != p.id => Err(too_many),
+                _ => Ok((p.id, None)),
+            },
+            [a, b] => {
+                // The front one (further along the pair's mean heading) is the seed.
+                let h = wrap_angle(b.pose.yaw - a.pose.yaw) / 2.0 + a.pose.yaw;
+                let along = |r: &RobotState| r.pose.x * h.cos() + r.pose.y * h.sin();
+                let (front, back) = if along(a) >= along(b) { (a, b) } else { (b, a) };
+                if seed.is_some_and(|s| s != front.id) {
+                    return Err(too_many);
+                }
+                let d = front.pose.inverse_transform(back.pose.xy());
+                let yaw = wrap_angle(back.pose.yaw - front.pose.yaw);
+                let (max_lateral, max_yaw) = crate::assign::LANE_TOLERANCE;
+                if d[1].abs() > max_lateral || yaw.abs() > max_yaw {
+                    return Err(PlanError::PilotsNotInLane {
+                        seed: front.id,
+                        pilot: back.id,
+                        lateral: d[1].abs(),
+                        yaw,
+                        max_lateral,
+                        max_yaw,
+                    });
+                }
+                Ok((front.id, Some(back.id)))
+            }
+            _ => Err(too_many),
+        }
+    }
+
+    /// The robot nearest the centre of `states`.
+    fn central(states: &[RobotState]) -> Option<RobotId> {
+        let poses: Vec<Pose2> = states.iter().map(|r| r.pose).collect();
+        let [cx, cy] = crate::assign::mean_position(&poses);
+        states
+            .iter()
+            .min_by(|a, b| {
+                let da = (a.pose.x - cx).hypot(a.pose.y - cy);
+                let db = (b.pose.x - cx).hypot(b.pose.y - cy);
+                da.total_cmp(&db)
+            })
+            .map(|r| r.id)
+    }
+
+    /// Growing: the held members of the grown assembly keep where they were first held
+    /// ([`Role::Keep`]). A robot docking at its side turned its end robot about its anchor
+    /// (rubbing along it, and steering by that robot's pose), and held at zero speed, the
+    /// row stayed bent to the anchors' play, its corner in the docking lane.
+    pub(super) fn keep_grown(
+        &mut self,
+        tasks: &mut [RobotTask],
+        segments: &BTreeMap<RobotId, usize>,
+    ) {
+        let home = match (&self.mode, self.grow) {
+            (Mode::Form, Some(seed)) => segments.get(&seed).copied(),
+            _ => None,
+        };
+        let size = home.map_or(0, |h| segments.values().filter(|&&s| s == h).count());
+        let mut kept = BTreeMap::new();
+        for task in tasks.iter_mut() {
+            if task.role != Role::Hold || Some(task.segment) != home || size < 2 {
+                continue;
+            }
+            // The lane pilot hangs at an anchor and turns no tighter than its butterfly:
+            // driven back to where it was first held after a joining robot knocked the
+            // assembly round, it lags the others until its anchor pops. It holds where it is.
+            if Some(task.robot) == self.grow_lane {
+                continue;
+            }
+            let Some(now) = self.robots.get(&task.robot).map(|k| k.pose) else {
+                continue;
+            };
+            let pose = self.kept_at.get(&task.robot).copied().unwrap_or(now);
+            kept.insert(task.robot, pose);
+            task.role = Role::Keep { pose };
+        }
+        self.kept_at = kept;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coordinator::fixtures::*;
+
+    /// Pilot 1 and three non-pilots scattered round it, growing a line round the pilot: the
+    /// coordinator, the robots, their kinds and the line's robots in slot order.
+    #[allow(clippy::type_complexity)]
+    fn line_grown_round_pilot_1() -> (
+        Coordinator,
+        Vec<RobotState>,
+        BTreeMap<RobotId, RobotKind>,
+        Vec<RobotId>,
+    ) {
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.2, 1.0),
+            np(3, -0.3, 0.3, 2.0),
+            np(4, 0.2, -0.3, -1.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
+        let slots = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap()
+            .slot_robot
+            .clone();
+        (c, robots, kinds, slots)
+    }
+
+    #[test]
+    fn growing_takes_one_pilot_as_its_seed_and_holds_the_assembly_still() {
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, 0.3, 0.2, 1.0),
+            np(3, -0.3, 0.1, 2.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        robots[2].kind = RobotKind::Pilot;
+        // Two pilots out of lane: the error gives the numbers.
+        let err = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                PlanError::PilotsNotInLane {
+                    seed: 1,
+                    pilot: 3,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(
+            err.to_string().contains("0.100 m off pilot 1's axis"),
+            "{err}"
+        );
+        // Three pilots: no lane takes them.
+        robots[1].kind = RobotKind::Pilot;
+        let err = c
+            .form_grown(0.0, ShapeSpec::Line, &robots, None)
+            .unwrap_err();
+        assert!(
+            matches!(err, PlanError::GrowPilots { pilots: 3, .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("0.61 m"), "{err}");
+        robots[1].kind = RobotKind::NonPilot;
+        robots[2].kind = RobotKind::NonPilot;
+        let plan = c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
+        // Built on the pilot, where it stands.
+        let at = plan.goal_poses[plan.slot_of(1).unwrap()];
+        assert!(at.x.abs() < 1e-9 && at.y.abs() < 1e-9 && at.yaw.abs() < 1e-9);
+        let tick = c.tick(0.0, &robots);
+        // One robot at a time joins the pilot; the pilot is not driven, the other waits.
+        assert_eq!(tick.active.len(), 1);
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        let moving: Vec<RobotId> = [2, 3]
+            .into_iter()
+            .filter(|&id| matches!(role_of(&tick, id), Role::Dock { .. } | Role::GoTo { .. }))
+            .collect();
+        assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
+    }
+
+    #[test]
+    fn a_second_pilot_in_the_lane_is_linked_to_the_seed_first() {
+        // Pilot 2 set down 0.4 m behind pilot 1, facing the same way (a little off by hand);
+        // four non-pilots scattered. THESIS 5.4.1: pilots move straight only.
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.1, 0.05, 0.3),
+            np(
+                2,
+                0.1 - 0.4 * 0.3f64.cos(),
+                0.05 - 0.4 * 0.3f64.sin() + 0.004,
+                0.32,
+            ),
+            np(3, 0.3, -0.25, 1.0),
+            np(4, -0.3, 0.3, 2.0),
+            np(5, 0.35, 0.3, -1.0),
+            np(6, -0.1, -0.3, 0.5),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        robots[1].kind = RobotKind::Pilot;
+        // The seed given as the back pilot is refused (only the front one stays put).
+        assert!(matches!(
+            c.form_grown(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, Some(2)),
+            Err(PlanError::GrowPilots { .. })
+        ));
+        let plan = c
+            .form_grown(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, None)
+            .unwrap()
+            .clone();
+        // Built on pilot 1 where it stands; pilot 2's place ahead of it on its own axis.
+        let at = plan.goal_of(1).unwrap();
+        assert!((at.x - 0.1).abs() < 1e-9 && (at.y - 0.05).abs() < 1e-9);
+        let p2 = robots[1].pose;
+        let d = p2.inverse_transform(plan.goal_of(2).unwrap().xy());
+        assert!(d[0] > 0.2 && d[1].abs() < 0.012, "pilot 2's place {d:?}");
+        // The robot between them: anchor pairs to both pilots.
+        let link = |a: RobotId| {
+            plan.pairs
+                .iter()
+                .filter(|p| p.kind == PairType::AnchorOpening && (p.a == a || p.b == a))
+                .map(|p| if p.a == a { p.b } else { p.a })
+                .collect::<Vec<_>>()
+        };
+        let middle = link(2)[0];
+        assert!(link(1).contains(&middle), "{:?}", plan.pairs);
+        // First a non-pilot couples to pilot 2 where it waits; everyone else waits.
+        let tick = c.tick(0.0, &robots);
+        assert_eq!(tick.active.len(), 1);
+        let p = c.pairs()[tick.active[0]].pair;
+        assert!([p.a, p.b].contains(&2) && [p.a, p.b].contains(&middle));
+        assert!(matches!(role_of(&tick, 2), Role::Wait));
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        // Coupled (pose at its place in front of pilot 2): the two join pilot 1 next.
+        let place = p2.compose(
+            &plan
+                .goal_of(2)
+                .unwrap()
+                .inverse()
+                .compose(&plan.goal_of(middle).unwrap()),
+        );
+        for r in robots.iter_mut().filter(|r| r.id == middle) {
+            r.pose = place;
+        }
+        let mut t = 0.0;
+        while c.pairs()[tick.active[0]].status != PairStatus::Connected && t < 3.0 {
+            t += 0.1;
+            c.tick(t, &robots);
+        }
+        assert_eq!(c.pairs()[tick.active[0]].status, PairStatus::Connected);
+        let tick = c.tick(t + 0.1, &robots);
+        assert_eq!(tick.active.len(), 1);
+        let q = c.pairs()[tick.active[0]].pair;
+        assert!(
+            [q.a, q.b].contains(&1) && [q.a, q.b].contains(&middle),
+            "{q:?}"
+        );
+        // Pilot 2 is driven with its partner now, straight up the lane, the partner in
+        // front pulling it; pilot 1 holds.
+        match (role_of(&tick, middle), role_of(&tick, 2)) {
+            (Role::Dock { v: v1, .. }, Role::Dock { v: v2, w: w2, .. }) => {
+                assert!(
+                    *v1 > 0.0 && *v2 > 0.0 && v2 < v1 && *w2 == 0.0,
+                    "{v1} {v2} {w2}"
+                );
+            }
+            other => panic!("train roles {other:?}"),
+        }
+        assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
+        // A robot waiting in the lane ahead of the train: the train stops and it steps aside.
+        let ahead = place.compose(&Pose2::new(0.1, 0.01, 0.5));
+        let other = [3, 4, 5, 6]
+            .into_iter()
+            .find(|&id| id != middle)
+            .expect("another robot");
+        for r in robots.iter_mut().filter(|r| r.id == other) {
+            r.pose = ahead;
+        }
+        let tick = c.tick(t + 0.2, &robots);
+        for id in [middle, 2] {
+            assert!(
+                matches!(role_of(&tick, id), Role::Dock { v, w, .. } if *v == 0.0 && *w == 0.0),
+                "robot {id}: {:?}",
+                role_of(&tick, id)
+            );
+        }
+        match role_of(&tick, other) {
+            Role::GoTo { goal, .. } => {
+                let o = ahead.inverse_transform(goal.xy());
+                assert!(o[1].abs() > 0.05, "aside: {o:?}");
+            }
+            r => panic!("robot {other} does not make way: {r:?}"),
+        }
+    }
+
+    #[test]
+    fn a_robot_waiting_in_a_docking_lane_makes_way() {
+        let (mut c, mut robots, _, _) = line_grown_round_pilot_1();
+        let tick = c.tick(0.0, &robots);
+        let i = tick.active[0];
+        let p = c.pairs()[i].pair;
+        let mover = if p.a == 1 { p.b } else { p.a };
+        let waiting = [2, 3, 4]
+            .into_iter()
+            .find(|&id| id != mover)
+            .expect("a waiting robot");
+        // Put the waiting robot on the approach axis, between the stand-off and the place.
+        let f = c.dock_frame(i, mover).expect("dock frame");
+        let s = f.normal.0.signum();
+        let at = f.fin.transform([-s * 0.06, 0.01]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(at[0], at[1], 0.3);
+        }
+        let tick = c.tick(0.1, &robots);
+        assert_eq!(tick.active, vec![i], "the same pair goes on");
+        match role_of(&tick, waiting) {
+            Role::GoTo { goal, .. } => {
+                let o = f.fin.inverse_transform(goal.xy());
+                // Its body (half a width) outside the 35 mm corridor.
+                assert!(
+                    o[1] > 0.035 + 0.025 && (o[0] + s * 0.06).abs() < 1e-9,
+                    "beside the corridor, on its own side: {o:?}"
+                );
+            }
+            r => panic!("robot {waiting} does not make way: {r:?}"),
+        }
+        // Beside the corridor but where the approaching robot must stand off (the route
+        // there keeps its clearance): it steps further out.
+        let near = f.fin.transform([-s * 0.06, 0.05]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(near[0], near[1], 0.3);
+        }
+        let tick = c.tick(0.15, &robots);
+        match role_of(&tick, waiting) {
+            Role::GoTo { goal, .. } => {
+                let o = f.fin.inverse_transform(goal.xy());
+                assert!(
+                    o[1] > routing::ROUTE_CLEARANCE,
+                    "clear of the stand-off: {o:?}"
+                );
+            }
+            r => panic!("robot {waiting} does not make way at the stand-off: {r:?}"),
+        }
+        // Out of the corridor and clear of the stand-off it waits again.
+        let out = f.fin.transform([-s * 0.06, 0.09]);
+        for r in robots.iter_mut().filter(|r| r.id == waiting) {
+            r.pose = Pose2::new(out[0], out[1], 0.3);
+        }
+        let tick = c.tick(0.2, &robots);
+        assert!(
+            matches!(role_of(&tick, waiting), Role::Hold | Role::Wait),
+            "{:?}",
+            role_of(&tick, waiting)
+        );
+    }
+
+    #[test]
+    fn a_grown_row_pushed_while_a_robot_joins_it_turns_back_to_where_it_was_held() {
+        let (mut c, robots, kinds, _) = line_grown_round_pilot_1();
+        // The first robot to join the pilot is coupled to it, where the plan puts it.
+        let active = c.tick(0.0, &robots).active[0];
+        let first = c.pairs()[active].pair;
+        let joined = if first.a == 1 { first.b } else { first.a };
+        let goal = at_goals(&c, &kinds);
+        let mut now: Vec<RobotState> = robots
+            .iter()
+            .map(|r| match r.id {
+                id if id == joined => *goal.iter().find(|g| g.id == id).unwrap(),
+                _ => *r,
+            })
+            .collect();
+        for k in 1..=10 {
+            c.tick(0.1 * k as f64, &now);
+        }
+        assert!(c
+            .pairs()
+            .iter()
+            .any(|p| p.pair == first && p.status == PairStatus::Connected));
+        c.tick(1.1, &now);
+        let tick = c.tick(1.2, &now);
+        let held = |tick: &Tick, id| match role_of(tick, id) {
+            Role::Keep { pose } => *pose,
+            r => panic!("robot {id}: {r:?}"),
+        };
+        let at = held(&tick, joined);
+        assert_eq!(at, now.iter().find(|r| r.id == joined).unwrap().pose);
+        held(&tick, 1);
+        // Pushed (turned about its anchor by the next robot docking): it keeps the pose
+        // where it was first held, to turn back to.
+        for r in now.iter_mut().filter(|r| r.id == joined) {
+            r.pose.yaw += 0.1;
+        }
+        let tick = c.tick(1.3, &now);
+        assert_eq!(held(&tick, joined), at);
+        // The robot that joins next is not held.
+        assert!(tick
+            .tasks
+            .iter()
+            .filter(|t| t.robot != 1 && t.robot != joined)
+            .all(|t| !matches!(t.role, Role::Keep { .. })));
+    }
+
+    #[test]
+    fn growing_brings_a_coupled_group_outside_the_grown_assembly_to_it() {
+        let (mut c, _, kinds, slots) = line_grown_round_pilot_1();
+        // The robots on the far side of the pilot coupled to each other in their places of
+        // the line, but 0.3 m to the side (their coupling out of turn, or the one to the
+        // pilot's side came apart); the near side joined: no lone robot is left to join.
+        let at = slots.iter().position(|&id| id == 1).unwrap();
+        let far: Vec<RobotId> = if at < slots.len() / 2 {
+            slots[at + 1..].to_vec()
+        } else {
+            slots[..at].to_vec()
+        };
+        assert!(far.len() >= 2, "{slots:?}");
+        let off: Vec<RobotState> = at_goals(&c, &kinds)
+            .into_iter()
+            .map(|mut r| {
+                if far.contains(&r.id) {
+                    r.pose.y += 0.3;
+                }
+                r
+            })
+            .collect();
+        for k in 0..=10 {
+            c.tick(0.1 * k as f64, &off);
+        }
+        let segments = c.segments();
+        assert!(
+            far.iter().all(|id| segments[id] == segments[&far[0]])
+                && slots
+                    .iter()
+                    .all(|id| far.contains(id) || segments[id] == segments[&1]),
+            "{segments:?}"
+        );
+        // The group is brought to the grown assembly by their anchor pair; it does not wait.
+        let tick = c.tick(1.1, &off);
+        assert_eq!(tick.active.len(), 1, "{:?}", tick.tasks);
+        let p = c.pairs()[tick.active[0]].pair;
+        assert!(far.contains(&p.a) != far.contains(&p.b), "{p:?}");
+        assert!(tick.tasks.iter().any(|t| far.contains(&t.robot)
+            && !matches!(t.role, Role::Wait | Role::Hold | Role::Keep { .. })));
+    }
+}

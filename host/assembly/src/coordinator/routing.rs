@@ -1,0 +1,86 @@
+//! Getting a robot somewhere: the next waypoint of a route round the other robots, and the
+//! turn-then-drive point law near it.
+
+use super::*;
+
+/// Centre distance a robot driving to the start of an approach keeps from every other robot
+/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
+pub(super) const ROUTE_CLEARANCE: f64 = 0.075;
+/// Smallest centre distance of the start of an approach to another robot (m): beside an
+/// assembly's side (50 mm bodies, 6 mm off), not closer.
+pub(super) const APPROACH_GAP: f64 = 0.05;
+/// How far around the robots a route may swing out (m).
+const ROUTE_MARGIN: f64 = 0.3;
+
+impl Coordinator {
+    /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
+    /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
+    /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
+    pub(super) fn point_drive(&self, pose: &Pose2, goal: [f64; 2]) -> (f64, f64) {
+        let d = self.cfg.dock;
+        let (dx, dy) = (goal[0] - pose.x, goal[1] - pose.y);
+        let mut e = wrap_angle(dy.atan2(dx) - pose.yaw);
+        let mut dir = 1.0;
+        if e.abs() > std::f64::consts::FRAC_PI_2 {
+            e = wrap_angle(e + std::f64::consts::PI);
+            dir = -1.0;
+        }
+        if e.abs() > 0.3 {
+            return (
+                0.0,
+                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
+            );
+        }
+        (dir * d.speed, d.k_theta * e)
+    }
+
+    /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
+    /// point law near it (the MPC's point goal stalls beside the robot).
+    pub(super) fn drive_to(&self, i: usize, pose: &Pose2, p: [f64; 2]) -> Role {
+        if (p[0] - pose.x).hypot(p[1] - pose.y) > 0.15 {
+            return Role::GoTo {
+                goal: Pose2::new(p[0], p[1], pose.yaw),
+                use_yaw: false,
+            };
+        }
+        let (v, w) = self.point_drive(pose, p);
+        Role::Dock { pair: i, v, w }
+    }
+
+    /// Centres of every live robot but `me`.
+    pub(super) fn others(&self, me: RobotId) -> Vec<[f64; 2]> {
+        self.robots
+            .iter()
+            .filter(|(id, _)| **id != me && !self.lost.contains(id))
+            .map(|(_, k)| k.pose.xy())
+            .collect()
+    }
+
+    /// The next waypoint of robot `me` on its way to `goal` round every other robot
+    /// ([`crate::route`]); None when there is no way (it waits).
+    pub(super) fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        self.next_waypoint(me, goal, APPROACH_GAP)
+    }
+
+    /// The next waypoint of dispersing robot `me` on its way to `goal` round every other
+    /// robot. Unlike [`Self::route_step`] a goal beside another robot is allowed (robots
+    /// dispersing from an assembly start and end close together), so this only answers None
+    /// when no way is found; the robot then heads for its goal directly.
+    pub(super) fn disperse_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
+        self.next_waypoint(me, goal, 0.0)
+    }
+
+    /// First waypoint of [`route`] for `me` round every other robot, the goal at least
+    /// `goal_gap` from any of them.
+    fn next_waypoint(&self, me: RobotId, goal: [f64; 2], goal_gap: f64) -> Option<[f64; 2]> {
+        let start = self.robots.get(&me)?.pose.xy();
+        let obstacles = self.others(me);
+        let field = Field {
+            obstacles: &obstacles,
+            clearance: ROUTE_CLEARANCE,
+        };
+        route(start, goal, &field, goal_gap, ROUTE_MARGIN)?
+            .first()
+            .copied()
+    }
+}
