@@ -71,10 +71,52 @@ impl Ends {
     }
 }
 
+/// The obstacles a route between `start` and `goal` can meet, and the corners of the box
+/// round them, start and goal: every obstacle within `margin` of the box, the box grown by
+/// each one taken in until none is left (a line of robots across the way is taken in whole;
+/// a robot metres away is not, so the grid does not span the floor to reach it).
+fn search_area(
+    start: [f64; 2],
+    goal: [f64; 2],
+    field: &Field<'_>,
+    margin: f64,
+) -> (Vec<[f64; 2]>, [f64; 2], [f64; 2]) {
+    let mut lo = [start[0].min(goal[0]), start[1].min(goal[1])];
+    let mut hi = [start[0].max(goal[0]), start[1].max(goal[1])];
+    let mut taken = vec![false; field.obstacles.len()];
+    let reach = margin + field.clearance;
+    loop {
+        let mut grew = false;
+        for (o, t) in field.obstacles.iter().zip(taken.iter_mut()) {
+            let inside = o[0] > lo[0] - reach
+                && o[0] < hi[0] + reach
+                && o[1] > lo[1] - reach
+                && o[1] < hi[1] + reach;
+            if !*t && inside {
+                *t = true;
+                grew = true;
+                lo = [lo[0].min(o[0]), lo[1].min(o[1])];
+                hi = [hi[0].max(o[0]), hi[1].max(o[1])];
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
+    let near = field
+        .obstacles
+        .iter()
+        .zip(&taken)
+        .filter(|(_, &t)| t)
+        .map(|(o, _)| *o)
+        .collect();
+    (near, lo, hi)
+}
+
 /// A route from `start` to `goal` keeping `field`'s clearance (relaxed near both ends, see
 /// [`Ends`]): waypoints after the start, ending at `goal`; None when the goal is nearer than
 /// `goal_gap` to an obstacle or unreachable within the search area (the bounding box of
-/// start, goal and obstacles, widened by `margin`).
+/// start, goal and the obstacles near them ([`search_area`]), widened by `margin`).
 pub fn route(
     start: [f64; 2],
     goal: [f64; 2],
@@ -89,12 +131,11 @@ pub fn route(
     if field.segment_free(start, goal, &ends) {
         return Some(vec![goal]);
     }
-    let mut lo = [start[0].min(goal[0]), start[1].min(goal[1])];
-    let mut hi = [start[0].max(goal[0]), start[1].max(goal[1])];
-    for o in field.obstacles {
-        lo = [lo[0].min(o[0]), lo[1].min(o[1])];
-        hi = [hi[0].max(o[0]), hi[1].max(o[1])];
-    }
+    let (near, lo, hi) = search_area(start, goal, field, margin);
+    let field = &Field {
+        obstacles: &near,
+        clearance: field.clearance,
+    };
     let lo = [lo[0] - margin, lo[1] - margin];
     let nx = ((hi[0] + margin - lo[0]) / CELL).ceil() as i32 + 1;
     let ny = ((hi[1] + margin - lo[1]) / CELL).ceil() as i32 + 1;
@@ -221,6 +262,29 @@ mod tests {
         let p = route([0.1, 0.3], goal, &f, 0.05, 0.3).expect("a route");
         assert_eq!(*p.last().unwrap(), goal);
         assert!(clear_of(&p, [0.1, 0.3], &f), "{p:?}");
+    }
+
+    #[test]
+    fn a_robot_far_across_the_floor_does_not_widen_the_search() {
+        // A goal enclosed by a ring of robots (no way in: the search exhausts its area) and
+        // one robot 40 m away: the area stays round the ring, so the answer comes at once.
+        let mut obstacles: Vec<[f64; 2]> = (0..16)
+            .map(|k| {
+                let a = k as f64 * std::f64::consts::TAU / 16.0;
+                [0.5 + 0.12 * a.cos(), 0.12 * a.sin()]
+            })
+            .collect();
+        obstacles.push([40.0, 30.0]);
+        let f = Field {
+            obstacles: &obstacles,
+            clearance: 0.075,
+        };
+        let t0 = std::time::Instant::now();
+        assert_eq!(route([0.0, 0.0], [0.5, 0.0], &f, 0.0, 0.3), None);
+        assert!(t0.elapsed().as_secs_f64() < 1.0, "{:?}", t0.elapsed());
+        let (near, lo, hi) = search_area([0.0, 0.0], [0.5, 0.0], &f, 0.3);
+        assert_eq!(near.len(), 16);
+        assert!(hi[0] - lo[0] < 1.0 && hi[1] - lo[1] < 1.0, "{lo:?} {hi:?}");
     }
 
     #[test]
