@@ -365,7 +365,11 @@ pub fn plot(path: &Path, s: &Summary) -> Result<(), String> {
 
 /// `puzzlebot experiment assemblies`: run, print, write `summary.json` and `success.svg`.
 pub fn command(opts: &Options, runs_dir: &Path) -> anyhow::Result<Summary> {
-    let bar = if opts.progress {
+    use std::io::IsTerminal;
+    // Piped or logged, a bar would not show: one line per finished episode instead.
+    let lines = opts.progress && !std::io::stderr().is_terminal();
+    let done = AtomicUsize::new(0);
+    let bar = if opts.progress && !lines {
         let b = indicatif::ProgressBar::new(opts.episodes as u64);
         b.set_style(
             indicatif::ProgressStyle::with_template(
@@ -381,6 +385,19 @@ pub fn command(opts: &Options, runs_dir: &Path) -> anyhow::Result<Summary> {
     let s = run(opts, &|o| {
         if !o.success {
             failed.fetch_add(1, Ordering::Relaxed);
+        }
+        if lines {
+            let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+            let e = &o.episode;
+            eprintln!(
+                "{n}/{} seed {} ({} robots, {}): {} in {:.0} s",
+                opts.episodes,
+                e.seed,
+                e.robots,
+                e.shape.bucket(),
+                o.failure.map_or("ok", |f| f.name()),
+                o.wall_s
+            );
         }
         if let Some(b) = &bar {
             b.set_message(format!("{} failed", failed.load(Ordering::Relaxed)));
