@@ -9,6 +9,11 @@ use pathfinding::prelude::astar;
 /// Grid step of the route search (m).
 pub const CELL: f64 = 0.01;
 
+/// Cells along the longer side of the search area at most: an area wider than this many
+/// [`CELL`]s (a robot routing back from metres away) is searched on a coarser grid, so one
+/// search stays within ~10⁵ cells when no way is found.
+pub const MAX_SIDE_CELLS: f64 = 400.0;
+
 /// Obstacles and clearance of a route search.
 #[derive(Debug, Clone, Copy)]
 pub struct Field<'a> {
@@ -137,13 +142,15 @@ pub fn route(
         clearance: field.clearance,
     };
     let lo = [lo[0] - margin, lo[1] - margin];
-    let nx = ((hi[0] + margin - lo[0]) / CELL).ceil() as i32 + 1;
-    let ny = ((hi[1] + margin - lo[1]) / CELL).ceil() as i32 + 1;
-    let at = |c: (i32, i32)| [lo[0] + c.0 as f64 * CELL, lo[1] + c.1 as f64 * CELL];
+    let extent = (hi[0] + margin - lo[0]).max(hi[1] + margin - lo[1]);
+    let step = CELL.max(extent / MAX_SIDE_CELLS);
+    let nx = ((hi[0] + margin - lo[0]) / step).ceil() as i32 + 1;
+    let ny = ((hi[1] + margin - lo[1]) / step).ceil() as i32 + 1;
+    let at = |c: (i32, i32)| [lo[0] + c.0 as f64 * step, lo[1] + c.1 as f64 * step];
     let cell = |p: [f64; 2]| {
         (
-            ((p[0] - lo[0]) / CELL).round() as i32,
-            ((p[1] - lo[1]) / CELL).round() as i32,
+            ((p[0] - lo[0]) / step).round() as i32,
+            ((p[1] - lo[1]) / step).round() as i32,
         )
     };
     let (c0, c1) = (cell(start), cell(goal));
@@ -281,6 +288,10 @@ mod tests {
         };
         let t0 = std::time::Instant::now();
         assert_eq!(route([0.0, 0.0], [0.5, 0.0], &f, 0.0, 0.3), None);
+        assert!(t0.elapsed().as_secs_f64() < 1.0, "{:?}", t0.elapsed());
+        // Routing in from far away: a coarser grid over the long way.
+        let t0 = std::time::Instant::now();
+        assert_eq!(route([-30.0, 20.0], [0.5, 0.0], &f, 0.0, 0.3), None);
         assert!(t0.elapsed().as_secs_f64() < 1.0, "{:?}", t0.elapsed());
         let (near, lo, hi) = search_area([0.0, 0.0], [0.5, 0.0], &f, 0.3);
         assert_eq!(near.len(), 16);
