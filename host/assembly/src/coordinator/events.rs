@@ -128,6 +128,14 @@ pub enum EventKind {
         /// Opening / hole robot.
         b: RobotId,
     },
+    /// A released pair came back together before its decouple behaviour ended: it is
+    /// wiggled open again.
+    PairRecoupled {
+        /// Anchor / knob robot.
+        a: RobotId,
+        /// Opening / hole robot.
+        b: RobotId,
+    },
 }
 
 /// A timed event.

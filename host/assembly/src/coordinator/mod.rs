@@ -319,10 +319,29 @@ impl Coordinator {
                             .is_some_and(|p| p.status == PairStatus::Decoupled)
                 })
                 .collect();
+            // A released pair pushed back together (a neighbour's wiggle shoved the robot
+            // that had driven clear) is wiggled open again: the behaviour ends only with
+            // every pair apart.
+            let again: Vec<usize> = pairs
+                .iter()
+                .copied()
+                .filter(|&i| {
+                    self.released.contains(&i)
+                        && self.pairs.get(i).is_some_and(|p| {
+                            p.status == PairStatus::Connected
+                                && p.pair.kind == PairType::AnchorOpening
+                        })
+                })
+                .collect();
             for i in done {
                 self.released.insert(i);
                 let p = self.pairs[i].pair;
                 self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
+            }
+            for i in again {
+                self.released.remove(&i);
+                let p = self.pairs[i].pair;
+                self.push(t, EventKind::PairRecoupled { a: p.a, b: p.b });
             }
         }
         self.confirm_by_tug(t);
