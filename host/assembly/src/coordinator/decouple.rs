@@ -3,20 +3,6 @@
 
 use super::*;
 
-/// Robot → chain label: the connected groups of the pairs `links`.
-fn chains(links: &[(RobotId, RobotId)]) -> BTreeMap<RobotId, usize> {
-    let ids: BTreeSet<RobotId> = links.iter().flat_map(|&(a, b)| [a, b]).collect();
-    let index: BTreeMap<RobotId, usize> = ids.iter().enumerate().map(|(k, &id)| (id, k)).collect();
-    let mut groups = petgraph::unionfind::UnionFind::<usize>::new(ids.len());
-    for (a, b) in links {
-        groups.union(index[a], index[b]);
-    }
-    index
-        .iter()
-        .map(|(&id, &k)| (id, groups.find_mut(k)))
-        .collect()
-}
-
 /// A robot wiggling a pair apart.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Wiggler {
@@ -104,37 +90,17 @@ impl Coordinator {
                         })
                 })
             };
-            // One wiggle per chain of anchor pairs still held, from an end of it: wiggling
-            // several joints of one line at once turned them all the same way until every
-            // joint stood at its yaw limit and the line, curled into a rigid arc, turned
-            // as one with no joint reaching the swing that pops the legs.
-            let chained: Vec<(RobotId, RobotId)> = pairs
-                .iter()
-                .filter(|&i| !self.released.contains(i))
-                .filter_map(|&i| self.pairs.get(i))
-                .filter(|p| {
-                    p.pair.kind == PairType::AnchorOpening && p.status != PairStatus::Decoupled
-                })
-                .map(|p| (p.pair.a, p.pair.b))
-                .collect();
-            let chain = chains(&chained);
-            let degree = |r: RobotId| chained.iter().filter(|&&(a, b)| a == r || b == r).count();
-            let mut busy_chains = BTreeSet::new();
-            let mut order: Vec<(bool, bool, bool, usize)> = pairs
+            let mut order: Vec<(bool, bool, usize)> = pairs
                 .iter()
                 .map(|&i| {
                     let blocked = self.pairs.get(i).is_some_and(|p| {
                         self.kind_of(p.pair.a) == RobotKind::NonPilot && held(p.pair.a, i, false)
                     });
-                    let end = self
-                        .pairs
-                        .get(i)
-                        .is_some_and(|p| degree(p.pair.a) <= 1 || degree(p.pair.b) <= 1);
-                    (!self.released.contains(&i), blocked, !end, i)
+                    (!self.released.contains(&i), blocked, i)
                 })
                 .collect();
             order.sort_unstable();
-            for (unreleased, _, _, i) in order {
+            for (unreleased, _, i) in order {
                 let Some(tp) = self
                     .pairs
                     .get(i)
@@ -146,13 +112,6 @@ impl Coordinator {
                 if busy.contains(&a) || busy.contains(&b) || (!unreleased && self.head_clear(a, b))
                 {
                     continue;
-                }
-                if unreleased {
-                    if let Some(&c) = chain.get(&a) {
-                        if !busy_chains.insert(c) {
-                            continue;
-                        }
-                    }
                 }
                 busy.extend([a, b]);
                 let (robot, partner, mut v_sign) = self.wiggling_side(a, b);
@@ -506,32 +465,6 @@ mod tests {
             .any(|e| matches!(e.kind, EventKind::PairReleased { a, b } if (a, b) == (ka, kb))));
         let w = wiggling(&c.tick(5.3, &lifted));
         assert_eq!(w.len(), 2, "one anchor robot per row: {w:?}");
-    }
-
-    #[test]
-    fn a_long_train_wiggles_one_joint_at_a_time_from_an_end() {
-        let robots: Vec<RobotState> = (0..5)
-            .map(|k| np(k + 1, 0.2 * k as f64, 0.0, 0.0))
-            .collect();
-        let (mut c, goal, pairs) = decoupling(ShapeSpec::Line, &robots);
-        assert_eq!(pairs.len(), 4);
-        let w = wiggling(&c.tick(5.1, &goal));
-        assert_eq!(w.len(), 1, "one wiggle in the whole train: {w:?}");
-        let end = |id: RobotId| {
-            pairs
-                .iter()
-                .filter(|&&i| {
-                    let p = c.pairs()[i].pair;
-                    p.a == id || p.b == id
-                })
-                .count()
-        };
-        let p = pairs
-            .iter()
-            .map(|&i| c.pairs()[i].pair)
-            .find(|p| p.a == w[0].0 || p.b == w[0].0)
-            .expect("the wiggler's pair");
-        assert!(end(p.a) == 1 || end(p.b) == 1, "an end pair first: {p:?}");
     }
 
     #[test]
