@@ -239,28 +239,6 @@ const TRIG_REFRESH: u32 = 1024;
 const MAX_FEEDBACK_SPEED: f64 = 2.0;
 /// The same for the yaw rate (rad/s).
 const MAX_FEEDBACK_TURN: f64 = 40.0;
-/// A pushed or towed robot moves at most this many times as fast as the fastest robot of
-/// the fleet drives (its top speed, butterfly point B): contacts and couplings pass speed
-/// on, they do not make it. The projection's feedback adds up over steps where a coupling
-/// loop closes inconsistently (an anchor latched into a robot knob-locked into the other
-/// row of a mesh); without a bound on the sum the group flew off at metres per second.
-const MAX_PUSHED_SPEED_FACTOR: f64 = 2.0;
-
-/// Bounds on a robot's speed and yaw rate after the projection's feedback
-/// ([`MAX_PUSHED_SPEED_FACTOR`]): (m/s, rad/s). The yaw rate is the speed bound at half a
-/// body length from the centre (a robot swung round by a neighbour at its end).
-fn pushed_limits(robots: &[SimRobot]) -> (f64, f64) {
-    let top = robots
-        .iter()
-        .map(|r| f64::from(r.params.drive.butterfly_b[0]))
-        .fold(0.0, f64::max);
-    let half_length = robots
-        .iter()
-        .map(|r| 0.5 * f64::from(r.params.geometry.length))
-        .fold(f64::INFINITY, f64::min);
-    let speed = MAX_PUSHED_SPEED_FACTOR * top.max(1e-3);
-    (speed, speed / half_length.clamp(1e-3, 1.0))
-}
 
 fn trig_of(yaw: f64) -> [f64; 2] {
     let (s, c) = yaw.sin_cos();
@@ -292,8 +270,6 @@ pub struct World {
     scratch: Vec<(u16, f64, f64, f64, f64)>,
     /// Per-step scratch: wheel angles before and body velocities after each drive step.
     plant_out: Vec<([f64; 2], [f64; 3])>,
-    /// [`pushed_limits`] of the fleet (m/s, rad/s).
-    pushed: (f64, f64),
 }
 
 fn support_points(p: &RobotParams) -> Vec<V2> {
@@ -381,9 +357,7 @@ impl World {
                 });
             }
         }
-        let pushed = pushed_limits(&robots);
         Ok(World {
-            pushed,
             time_us: 0,
             step_us: DEFAULT_STEP_US,
             key: key.clone(),
@@ -507,13 +481,6 @@ impl World {
                 r.drive.v += lim((c * dx + s * dy) / dt, MAX_FEEDBACK_SPEED);
                 r.drive.vy += lim((-s * dx + c * dy) / dt, MAX_FEEDBACK_SPEED);
                 r.drive.omega += lim(dyaw / dt, MAX_FEEDBACK_TURN);
-                let (speed, turn) = self.pushed;
-                let now = r.drive.v.hypot(r.drive.vy);
-                if now > speed {
-                    r.drive.v *= speed / now;
-                    r.drive.vy *= speed / now;
-                }
-                r.drive.omega = r.drive.omega.clamp(-turn, turn);
                 r.pose = body.pose;
                 if dyaw != 0.0 {
                     r.trig = body.trig;
