@@ -100,10 +100,11 @@ impl Coordinator {
             .map(|r| r.id)
     }
 
-    /// Growing: the held members of the grown assembly keep where they were first held
-    /// ([`Role::Keep`]). A robot docking at its side turned its end robot about its anchor
-    /// (rubbing along it, and steering by that robot's pose), and held at zero speed, the
-    /// row stayed bent to the anchors' play, its corner in the docking lane.
+    /// Growing: the held members of the grown assembly keep their planned places relative
+    /// to the seed, which keeps where it was first held ([`Role::Keep`]). A robot docking at
+    /// the assembly's side turns its members about their anchors (rubbing along them, and
+    /// steering by their poses); held at zero speed, or where they first stood, a row stays
+    /// bent to the anchors' play, its corner in the docking lane.
     pub(super) fn keep_grown(
         &mut self,
         tasks: &mut [RobotTask],
@@ -131,6 +132,24 @@ impl Coordinator {
             let pose = self.kept_at.get(&task.robot).copied().unwrap_or(now);
             kept.insert(task.robot, pose);
             task.role = Role::Keep { pose };
+        }
+        // Every member keeps its planned place relative to where the seed is kept: a row
+        // held where its members first stood stays bent to its anchors' play, and a robot
+        // that docks at its side against two members of a bent row finds no fit (its knob
+        // needs 0.04 rad and flush faces with both). The seed itself keeps where it stood.
+        if let (Some(seed), Some(plan)) = (self.grow, &self.plan) {
+            if let (Some(&at), Some(seed_goal)) = (kept.get(&seed), plan.goal_of(seed)) {
+                for task in tasks.iter_mut() {
+                    if task.robot == seed {
+                        continue;
+                    }
+                    if let (Role::Keep { pose }, Some(goal)) =
+                        (&mut task.role, plan.goal_of(task.robot))
+                    {
+                        *pose = at.compose(&seed_goal.relative(&goal));
+                    }
+                }
+            }
         }
         self.kept_at = kept;
     }
@@ -399,17 +418,31 @@ mod tests {
     }
 
     #[test]
-    fn a_grown_row_pushed_while_a_robot_joins_it_turns_back_to_where_it_was_held() {
+    fn a_grown_row_is_kept_straight_at_its_planned_places_while_a_robot_joins_it() {
         let (mut c, robots, kinds, _) = line_grown_round_pilot_1();
-        // The first robot to join the pilot is coupled to it, where the plan puts it.
+        // The first robot to join the pilot is coupled to it at its place in the plan, but
+        // bent 0.15 rad about its anchor (within the anchor's play).
         let active = c.tick(0.0, &robots).active[0];
         let first = c.pairs()[active].pair;
         let joined = if first.a == 1 { first.b } else { first.a };
         let goal = at_goals(&c, &kinds);
+        let planned = goal.iter().find(|g| g.id == joined).unwrap().pose;
+        // Turned about its connection point, where the two robots touch.
+        let own = if joined == first.a {
+            first.point_a
+        } else {
+            first.point_b
+        };
+        let w = planned.transform(own.position(&c.geometry));
+        let bent = Pose2::new(w[0], w[1], 0.15).compose(&Pose2::new(
+            planned.x - w[0],
+            planned.y - w[1],
+            planned.yaw,
+        ));
         let mut now: Vec<RobotState> = robots
             .iter()
             .map(|r| match r.id {
-                id if id == joined => *goal.iter().find(|g| g.id == id).unwrap(),
+                id if id == joined => RobotState { pose: bent, ..*r },
                 _ => *r,
             })
             .collect();
@@ -426,16 +459,19 @@ mod tests {
             Role::Keep { pose } => *pose,
             r => panic!("robot {id}: {r:?}"),
         };
+        // It is kept at its planned (straight) place relative to the seed, not where it
+        // stood bent: a robot docking at the side of a bent row finds no fit.
+        let near =
+            |a: Pose2, b: Pose2| a.distance(&b) < 1e-9 && wrap_angle(a.yaw - b.yaw).abs() < 1e-9;
         let at = held(&tick, joined);
-        assert_eq!(at, now.iter().find(|r| r.id == joined).unwrap().pose);
+        assert!(near(at, planned), "{at:?} vs {planned:?}");
         held(&tick, 1);
-        // Pushed (turned about its anchor by the next robot docking): it keeps the pose
-        // where it was first held, to turn back to.
+        // Pushed (turned about its anchor by the next robot docking): the same place.
         for r in now.iter_mut().filter(|r| r.id == joined) {
             r.pose.yaw += 0.1;
         }
         let tick = c.tick(1.3, &now);
-        assert_eq!(held(&tick, joined), at);
+        assert!(near(held(&tick, joined), planned));
         // The robot that joins next is not held.
         assert!(tick
             .tasks

@@ -11,7 +11,7 @@ pub enum Role {
     /// Stand still at `pose`, turning back to it when pushed (an MPC pose goal): a member
     /// of the assembly being grown while a robot joins it ([`Coordinator::keep_grown`]).
     Keep {
-        /// Where the robot was when it was first held.
+        /// Its planned place relative to the seed (the seed: where it was first held).
         pose: Pose2,
     },
     /// Not driven: a pilot that is not yet part of an assembly with a non-pilot (THESIS 3.5.2),
