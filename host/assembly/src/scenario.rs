@@ -1009,14 +1009,7 @@ impl ScenarioRunner {
                     }
                 })
             }
-            Behaviour::Decouple { .. } => match c.mode() {
-                Mode::Decouple { pairs, .. } => pairs.iter().all(|&i| {
-                    c.pairs()
-                        .get(i)
-                        .is_none_or(|p| p.status == crate::pair::PairStatus::Decoupled)
-                }),
-                _ => true,
-            },
+            Behaviour::Decouple { .. } => c.decouple_done(),
             Behaviour::Disperse { tolerance, .. } => match c.mode() {
                 Mode::Disperse { goals } => goals.iter().all(|(id, g)| {
                     c.lost().contains(id)

@@ -38,6 +38,22 @@ const KNOB_LIFT_REPEAT_S: f64 = 10.0;
 /// train wiggles.
 pub const DECOUPLE_CLEAR: f64 = 0.015;
 
+/// A released anchor pair whose head is still not [`DECOUPLE_CLEAR`] out after this many
+/// times the time its robot needs to drive that far (plus the anchor's travel) at
+/// [`CLEAR_SPEED`] is still held: its legs did not pop although the measured yaw left the
+/// anchor's range for a moment, and driving straight on drags the partner along.
+const CLEAR_TIME_FACTOR: f64 = 3.0;
+
+/// Release bookkeeping of a decouple behaviour ([`Coordinator::update_released`]).
+#[derive(Debug, Clone, Default)]
+pub(super) struct ReleaseWatch {
+    /// When each released pair was released (s).
+    at: BTreeMap<usize, f64>,
+    /// Pairs wiggled again because their head stayed in after release: released only once
+    /// the head is clear.
+    stuck: BTreeSet<usize>,
+}
+
 impl Coordinator {
     /// Robots that wiggle now: one robot of each of a decouple behaviour's anchor pairs
     /// ([`Coordinator::wiggling_side`]; one pair per robot at a time, a released pair's robot
@@ -149,6 +165,78 @@ impl Coordinator {
             }
         }
         out
+    }
+
+    /// A decouple behaviour's pairs: released once measured apart (a pair wiggled again
+    /// after a failed clearing only once its head is clear), and wiggled again when a
+    /// released anchor pair is seen connected (a neighbour's wiggle shoved the robot that
+    /// had driven clear back in) or its head is still in long after release (it is still
+    /// held). The behaviour ends only with every pair apart.
+    pub(super) fn update_released(&mut self, t: f64) {
+        let Mode::Decouple { pairs, .. } = &self.mode else {
+            return;
+        };
+        let deadline = CLEAR_TIME_FACTOR
+            * (DECOUPLE_CLEAR + f64::from(self.cfg.tolerances.coupling.anchor_travel))
+            / CLEAR_SPEED;
+        let mut done = Vec::new();
+        let mut again = Vec::new();
+        for &i in pairs {
+            let Some(tp) = self.pairs.get(i) else {
+                continue;
+            };
+            let (a, b) = (tp.pair.a, tp.pair.b);
+            let anchor = tp.pair.kind == PairType::AnchorOpening;
+            if !self.released.contains(&i) {
+                let apart = tp.status == PairStatus::Decoupled
+                    && (!self.release_watch.stuck.contains(&i) || self.head_clear(a, b));
+                if apart {
+                    done.push(i);
+                }
+            } else if anchor {
+                let late = self
+                    .release_watch
+                    .at
+                    .get(&i)
+                    .is_some_and(|&t0| t - t0 > deadline && !self.head_clear(a, b));
+                if tp.status == PairStatus::Connected || late {
+                    again.push((i, late));
+                }
+            }
+        }
+        for i in done {
+            self.released.insert(i);
+            self.release_watch.at.insert(i, t);
+            self.release_watch.stuck.remove(&i);
+            let p = self.pairs[i].pair;
+            self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
+        }
+        for (i, late) in again {
+            self.released.remove(&i);
+            self.release_watch.at.remove(&i);
+            if late {
+                self.release_watch.stuck.insert(i);
+            }
+            let p = self.pairs[i].pair;
+            self.push(t, EventKind::PairRecoupled { a: p.a, b: p.b });
+        }
+    }
+
+    /// Every pair of the decouple behaviour is apart: measured decoupled, or released with
+    /// its head clear (two robots that drove apart may still stand aligned).
+    pub fn decouple_done(&self) -> bool {
+        let Mode::Decouple { pairs, .. } = &self.mode else {
+            return true;
+        };
+        pairs.iter().all(|&i| {
+            self.pairs.get(i).is_none_or(|p| {
+                p.status == PairStatus::Decoupled
+                    || (self.released.contains(&i)
+                        && p.pair.kind == PairType::AnchorOpening
+                        && p.status == PairStatus::HeadAligned
+                        && self.head_clear(p.pair.a, p.pair.b))
+            })
+        })
     }
 
     /// Robot `anchor`'s anchor head is [`DECOUPLE_CLEAR`] out of robot `opening`'s front

@@ -34,6 +34,7 @@ mod tug;
 
 use approach::Manoeuvre;
 pub use config::{CoordinatorConfig, DockConfig};
+use decouple::ReleaseWatch;
 pub use events::{Event, EventKind};
 pub use mode::Mode;
 pub use motion::VELOCITY_RAMP_S;
@@ -107,6 +108,9 @@ pub struct Coordinator {
     heading: Option<f64>,
     pairs: Vec<TrackedPair>,
     released: BTreeSet<usize>,
+    /// When each released pair was released, and the pairs re-wiggled because their head
+    /// stayed in ([`Coordinator::update_released`]).
+    release_watch: ReleaseWatch,
     robots: BTreeMap<RobotId, Known>,
     lost: BTreeSet<RobotId>,
     mode: Mode,
@@ -161,6 +165,7 @@ impl Coordinator {
             heading: None,
             pairs: Vec::new(),
             released: BTreeSet::new(),
+            release_watch: ReleaseWatch::default(),
             robots: BTreeMap::new(),
             lost: BTreeSet::new(),
             mode: Mode::Hold,
@@ -306,44 +311,7 @@ impl Coordinator {
             let tr = self.pairs[i].update(t, &pa, &pb, &self.geometry, &self.cfg.tolerances);
             self.push_transitions(i, tr);
         }
-        // Release decoupled pairs of a decouple behaviour.
-        if let Mode::Decouple { pairs, .. } = &self.mode {
-            let done: Vec<usize> = pairs
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    !self.released.contains(&i)
-                        && self
-                            .pairs
-                            .get(i)
-                            .is_some_and(|p| p.status == PairStatus::Decoupled)
-                })
-                .collect();
-            // A released pair pushed back together (a neighbour's wiggle shoved the robot
-            // that had driven clear) is wiggled open again: the behaviour ends only with
-            // every pair apart.
-            let again: Vec<usize> = pairs
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    self.released.contains(&i)
-                        && self.pairs.get(i).is_some_and(|p| {
-                            p.status == PairStatus::Connected
-                                && p.pair.kind == PairType::AnchorOpening
-                        })
-                })
-                .collect();
-            for i in done {
-                self.released.insert(i);
-                let p = self.pairs[i].pair;
-                self.push(t, EventKind::PairReleased { a: p.a, b: p.b });
-            }
-            for i in again {
-                self.released.remove(&i);
-                let p = self.pairs[i].pair;
-                self.push(t, EventKind::PairRecoupled { a: p.a, b: p.b });
-            }
-        }
+        self.update_released(t);
         self.confirm_by_tug(t);
         self.update_wiggles(t);
         self.complete_since = if self.is_complete() {

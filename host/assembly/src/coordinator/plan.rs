@@ -64,6 +64,7 @@ impl Coordinator {
             })
             .collect();
         self.released.clear();
+        self.release_watch = ReleaseWatch::default();
         self.complete_reported = false;
         self.complete_since = None;
         let robots = plan.slot_robot.clone();
