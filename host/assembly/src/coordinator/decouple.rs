@@ -521,6 +521,65 @@ mod tests {
     }
 
     #[test]
+    fn a_released_anchor_whose_head_stays_in_is_wiggled_again() {
+        let (mut c, goal, pairs) = decoupling(
+            ShapeSpec::Line,
+            &[np(1, 0.0, 0.0, 0.0), np(2, 0.2, 0.0, 0.0)],
+        );
+        let i = pairs[0];
+        let (a, b) = (c.pairs()[i].pair.a, c.pairs()[i].pair.b);
+        let pose = |rs: &[RobotState], id| rs.iter().find(|r| r.id == id).unwrap().pose;
+        let with = |p: Pose2| -> Vec<RobotState> {
+            goal.iter()
+                .map(|r| {
+                    if r.id == a {
+                        RobotState { pose: p, ..*r }
+                    } else {
+                        *r
+                    }
+                })
+                .collect()
+        };
+        let seated = pose(&goal, a);
+        // The anchor robot swung past the anchor's yaw range: measured apart, released.
+        let swung = with(Pose2::new(seated.x, seated.y, seated.yaw + 1.2));
+        let tick = c.tick(5.1, &swung);
+        assert!(tick
+            .events
+            .iter()
+            .any(|e| matches!(e.kind, EventKind::PairReleased { a: x, b: y } if (x, y) == (a, b))));
+        // It swung back, its head 3 mm out of its seat (within the anchor's travel: still
+        // held), and stays there: not apart, and after the clearing time wiggled again.
+        let (s, co) = seated.yaw.sin_cos();
+        let held = with(Pose2::new(
+            seated.x + 0.003 * co,
+            seated.y + 0.003 * s,
+            seated.yaw,
+        ));
+        let mut again = false;
+        let mut t = 5.2;
+        while t < 12.0 && !again {
+            again |= c.tick(t, &held).events.iter().any(
+                |e| matches!(e.kind, EventKind::PairRecoupled { a: x, b: y } if (x, y) == (a, b)),
+            );
+            assert!(!c.decouple_done(), "t = {t}: done with the head in");
+            t += 0.1;
+        }
+        assert!(again, "never wiggled again");
+        assert!(wiggling(&c.tick(t, &held)).iter().any(|&(id, _)| id == a));
+        // Driven 5 cm clear: released, and the behaviour is done.
+        let clear = with(Pose2::new(
+            seated.x + 0.05 * co,
+            seated.y + 0.05 * s,
+            seated.yaw,
+        ));
+        for k in 1..=5 {
+            c.tick(t + 0.1 * f64::from(k), &clear);
+        }
+        assert!(c.decouple_done(), "{:?}", c.pairs()[i].status);
+    }
+
+    #[test]
     fn a_mesh_is_dissolved_by_lifting_its_knobs_then_wiggling_its_anchors() {
         let (mut c, goal, pairs) = decoupling(ShapeSpec::Mesh { rows: 2 }, &four_apart());
         let knob = *pairs
