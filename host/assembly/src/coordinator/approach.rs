@@ -523,7 +523,7 @@ impl Coordinator {
         segments: &BTreeMap<RobotId, usize>,
     ) -> Option<(RobotId, RobotId)> {
         let pilot = self.grow_lane?;
-        let home = segments.get(&self.grow?)?;
+        let home = segments.get(&self.grow_home(segments)?)?;
         let own = segments.get(&pilot)?;
         let tp = self.pairs.get(i)?;
         if own == home

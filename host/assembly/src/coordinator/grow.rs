@@ -4,6 +4,30 @@
 use super::*;
 
 impl Coordinator {
+    /// Growing: the robot whose assembly grows. The seed, unless it was knocked off on its
+    /// own (a lone non-pilot: a pair popped while a robot docked) while a larger assembly of
+    /// the plan stands: then that assembly's lowest-id member, and the seed joins it like
+    /// any other robot (held as the home, both would wait for each other). A lone pilot
+    /// seed stays the home: it cannot drive to the others (THESIS 3.5.2).
+    pub(super) fn grow_home(&self, segments: &BTreeMap<RobotId, usize>) -> Option<RobotId> {
+        let seed = self.grow?;
+        let size = |id: RobotId| {
+            segments
+                .get(&id)
+                .map_or(0, |s| segments.values().filter(|&x| x == s).count())
+        };
+        if size(seed) > 1 || self.kind_of(seed) == RobotKind::Pilot {
+            return Some(seed);
+        }
+        let planned = |id: RobotId| self.plan.as_ref().is_some_and(|p| p.slot_of(id).is_some());
+        segments
+            .keys()
+            .copied()
+            .filter(|&id| planned(id) && size(id) > 1)
+            .max_by_key(|&id| (size(id), std::cmp::Reverse(id)))
+            .or(Some(seed))
+    }
+
     /// Start forming `spec` grown around one robot (`seed`; default: the pilot, else the
     /// robot nearest the fleet's centre), which stays where it is: the shape is placed on it
     /// ([`crate::assign::assign_around`]) and the other robots join its assembly one at a time, each alone,
@@ -110,7 +134,8 @@ impl Coordinator {
         tasks: &mut [RobotTask],
         segments: &BTreeMap<RobotId, usize>,
     ) {
-        let home = match (&self.mode, self.grow) {
+        let home_robot = self.grow_home(segments);
+        let home = match (&self.mode, home_robot) {
             (Mode::Form, Some(seed)) => segments.get(&seed).copied(),
             _ => None,
         };
@@ -137,7 +162,7 @@ impl Coordinator {
         // held where its members first stood stays bent to its anchors' play, and a robot
         // that docks at its side against two members of a bent row finds no fit (its knob
         // needs 0.04 rad and flush faces with both). The seed itself keeps where it stood.
-        if let (Some(seed), Some(plan)) = (self.grow, &self.plan) {
+        if let (Some(seed), Some(plan)) = (home_robot, &self.plan) {
             if let (Some(&at), Some(seed_goal)) = (kept.get(&seed), plan.goal_of(seed)) {
                 for task in tasks.iter_mut() {
                     if task.robot == seed {

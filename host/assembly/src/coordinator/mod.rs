@@ -30,6 +30,7 @@ mod segments;
 mod tasks;
 #[cfg(test)]
 mod tests;
+mod train;
 mod tug;
 
 use approach::Manoeuvre;
@@ -128,6 +129,8 @@ pub struct Coordinator {
     /// Docking: the current driving direction (±1) per side pair; it reverses only after
     /// the robot passed its place by `DockConfig::overshoot`.
     dock_dir: std::cell::RefCell<BTreeMap<usize, Manoeuvre>>,
+    /// Velocity mode: the path of every train, by leader ([`train`]).
+    trains: std::cell::RefCell<BTreeMap<RobotId, train::TrainPath>>,
     /// Anchor couplings outside the plan (anchor robot, opening robot) → when first seen
     /// (s): undone by wiggling before formation goes on.
     unplanned: BTreeMap<(RobotId, RobotId), f64>,
@@ -176,6 +179,7 @@ impl Coordinator {
             motion_start: BTreeMap::new(),
             motion_offsets: BTreeMap::new(),
             dock_dir: std::cell::RefCell::new(BTreeMap::new()),
+            trains: Default::default(),
             unplanned: BTreeMap::new(),
             knob_lifts: BTreeMap::new(),
             grow: None,

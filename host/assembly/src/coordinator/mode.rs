@@ -74,6 +74,7 @@ impl Coordinator {
             Mode::Decouple { .. } => "decouple",
             Mode::Disperse { .. } => "disperse",
         };
+        self.trains.get_mut().clear();
         match (&self.mode, &mode) {
             // A velocity behaviour right after another: each reference goes on from where
             // the previous one is now, at its (v, ω), so the assembly does not stop between

@@ -131,8 +131,9 @@ impl Coordinator {
         m
     }
 
-    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the lowest-id
-    /// non-pilot; of a rigid assembly the non-pilot heading closest to the members' mean
+    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the first
+    /// non-pilot from the end that leads in the direction of travel ([`Self::train_leader`]);
+    /// of a rigid assembly the non-pilot heading closest to the members' mean
     /// heading (a robot hanging askew at an anchor would lead the rigid rest sideways);
     /// without non-pilots the lowest id. A member that already leads this motion (its start
     /// is recorded) keeps leading: chosen afresh each tick, the lead flipped between robots
@@ -142,18 +143,13 @@ impl Coordinator {
         if let Some(&id) = members.iter().find(|id| self.motion_start.contains_key(id)) {
             return id;
         }
-        let first = members
-            .iter()
-            .copied()
-            .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
-            .unwrap_or(members[0]);
-        if self
-            .live_pairs(members)
+        let live = self.live_pairs(members);
+        if live
             .iter()
             .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening)
         {
             // A chain of anchors (THESIS 5.2.2 "line") moves as a train behind its head.
-            return first;
+            return self.train_leader(members, &live);
         }
         let poses: Vec<Pose2> = members
             .iter()
@@ -173,6 +169,60 @@ impl Coordinator {
                 off(a).total_cmp(&off(b))
             })
             .unwrap_or(members[0])
+    }
+
+    /// Leader of a train (a chain of anchor pairs `live` among `members`): walking from the
+    /// end that leads in the direction of travel (the head, whose opening is free, when
+    /// driving forwards; the tail, whose anchor is free, when backing), the first non-pilot.
+    /// Every member behind it is then towed as a trailer ([`Self::hitch_commands`]) and at
+    /// most the pilots ahead of it are pushed: a chain pushed from behind buckles at its
+    /// anchors (each pushed member turns the next one away until the anchors' yaw range
+    /// pops a leg, THESIS 4.2.2), while a towed chain straightens behind its head.
+    fn train_leader(&self, members: &[RobotId], live: &[usize]) -> RobotId {
+        let backwards = match &self.mode {
+            Mode::Velocity { v, .. } => *v < 0.0,
+            _ => false,
+        };
+        // Along the chain: the anchor robot of a pair stands ahead of the opening robot.
+        let behind = |r: RobotId| -> Option<RobotId> {
+            live.iter().find_map(|&i| {
+                let p = &self.pairs[i].pair;
+                if backwards {
+                    (p.b == r).then_some(p.a)
+                } else {
+                    (p.a == r).then_some(p.b)
+                }
+            })
+        };
+        let fallback = members
+            .iter()
+            .copied()
+            .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
+            .unwrap_or(members[0]);
+        // The leading end: nobody ahead of it in the direction of travel.
+        let Some(end) = members.iter().copied().find(|&r| {
+            !live.iter().any(|&i| {
+                let p = &self.pairs[i].pair;
+                if backwards {
+                    p.a == r
+                } else {
+                    p.b == r
+                }
+            })
+        }) else {
+            return fallback; // a closed loop of anchors has no end
+        };
+        let mut r = end;
+        for _ in 0..members.len() {
+            if self.kind_of(r) == RobotKind::NonPilot {
+                return r;
+            }
+            match behind(r) {
+                Some(next) => r = next,
+                None => break,
+            }
+        }
+        fallback
     }
 
     /// Pose of `member` in `leader`'s body frame: planned when both are in the plan.
@@ -256,10 +306,7 @@ impl Coordinator {
             progress = false;
             for (&m, &(i, next)) in via {
                 let p = &self.pairs[i].pair;
-                if twist.contains_key(&m)
-                    || p.kind != PairType::AnchorOpening
-                    || self.kind_of(m) == RobotKind::Pilot
-                {
+                if twist.contains_key(&m) || p.kind != PairType::AnchorOpening {
                     continue;
                 }
                 let (Some(tn), Some(pn), Some(pm)) =
@@ -292,8 +339,18 @@ impl Coordinator {
                     ff[1] + HITCH_GAIN * (hy - oy),
                 ];
                 let [v, w] = drive_point(&pm, own, u);
-                let w = w.clamp(-HITCH_MAX_TURN, HITCH_MAX_TURN);
-                twist.insert(m, [v, w]);
+                // A pilot turns no tighter than its smallest radius (THESIS 3.5.1, 5.4.1).
+                let max_turn = match self.kind_of(m) {
+                    RobotKind::Pilot => v.abs() / self.cfg.pilot_turn_radius.max(1e-6),
+                    RobotKind::NonPilot => HITCH_MAX_TURN,
+                };
+                let w = w.clamp(-max_turn, max_turn);
+                // Down the train goes only the motion the member would have without its own
+                // correction (an ideal trailer behind its neighbour): each correction drives
+                // that member alone, so a tracking error or a pose's noise is not passed on
+                // and amplified from trailer to trailer.
+                let [vf, wf] = drive_point(&pm, own, ff);
+                twist.insert(m, [vf, wf.clamp(-max_turn, max_turn)]);
                 out.insert(m, [v, w]);
                 progress = true;
             }
@@ -315,13 +372,18 @@ mod tests {
         let tick = c.tick(0.6, &goal);
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
         assert_eq!(leaders.len(), 1, "one segment, one leader");
+        // The head of the line leads (the robot whose opening is free).
+        let lead = leaders.into_iter().next().flatten().expect("a leader");
+        let head = c.pairs()[0].pair.a;
+        assert_eq!(lead, head, "the anchor robot stands ahead and leads");
+        let follower = c.pairs()[0].pair.b;
         // The velocity becomes a reference: the leader's pose integrated at 0.02 m/s from
-        // where it stood, ramped up over `VELOCITY_RAMP_S`; the anchor chain behind it moves
-        // like a train, robot 2 towed at its connected pair with robot 1.
-        let Role::Track { reference: r1 } = role_of(&tick, 1) else {
-            panic!("{:?}", role_of(&tick, 1));
+        // where it stood, ramped up over `VELOCITY_RAMP_S`; the robot behind it follows its
+        // path ([`super::train`]).
+        let Role::Track { reference: r1 } = role_of(&tick, lead) else {
+            panic!("{:?}", role_of(&tick, lead));
         };
-        let l = goal.iter().find(|r| r.id == 1).unwrap().pose;
+        let l = goal.iter().find(|r| r.id == lead).unwrap().pose;
         let ramp = |t: f64| t * t / (2.0 * VELOCITY_RAMP_S);
         assert!(
             (r1[1].x - (l.x + 0.02 * ramp(0.1))).abs() < 1e-9,
@@ -331,9 +393,9 @@ mod tests {
         let last = r1.len() - 1;
         assert!(r1[last].x > r1[1].x, "it accelerates: {r1:?}");
         assert!(
-            matches!(role_of(&tick, 2), Role::Hitch { pair: 0, .. }),
+            matches!(role_of(&tick, follower), Role::Track { .. }),
             "{:?}",
-            role_of(&tick, 2)
+            role_of(&tick, follower)
         );
         assert_eq!(tick.maintain.len(), 1);
         // Decouple: the anchor robot wiggles; once apart the pair is released.
@@ -378,12 +440,13 @@ mod tests {
     #[test]
     fn a_velocity_behaviour_after_another_goes_on_without_stopping() {
         let (mut c, goal) = formed_pair();
-        let reference = |tick: &Tick| match role_of(tick, 1) {
+        let head = c.pairs()[0].pair.a;
+        let reference = |tick: &Tick| match role_of(tick, head) {
             Role::Track { reference } => reference.clone(),
             other => panic!("{other:?}"),
         };
         let dt = c.cfg.dt;
-        let l = goal.iter().find(|r| r.id == 1).unwrap().pose;
+        let l = goal.iter().find(|r| r.id == head).unwrap().pose;
         c.set_mode(0.5, Mode::Velocity { v: 0.04, w: 0.0 });
         c.tick(0.5, &goal);
         // After the ramp (2 s) the reference runs at 0.04 m/s: 0.04 · (t − 0.5 − 1) from l.
@@ -469,7 +532,7 @@ mod tests {
     }
 
     #[test]
-    fn a_moving_train_tows_its_members_as_trailers_and_a_mesh_keeps_its_alignment() {
+    fn a_train_on_a_trajectory_tows_its_members_as_trailers_and_a_mesh_keeps_its_alignment() {
         let robots = [
             np(1, 0.0, 0.0, 0.0),
             np(2, -0.1, 0.0, 0.0),
@@ -487,7 +550,22 @@ mod tests {
             [c * bx - s * by, s * bx + c * by]
         };
         let mut c = c0.clone();
-        c.set_mode(1.0, Mode::Velocity { v: 0.05, w: 0.3 });
+        // A trajectory of the shape's centre (the middle robot) that turns left at about
+        // 0.3 rad/s and 0.05 m/s.
+        let centre = Pose2::new(-0.1, 0.0, 0.0);
+        let along = |sign: f64| Mode::Track {
+            trajectory: Trajectory {
+                waypoints: vec![
+                    (0.0, centre),
+                    (
+                        10.0,
+                        centre.compose(&Pose2::new(sign * 0.5 * 0.95, 0.5 * 0.3, sign * 3.0)),
+                    ),
+                ],
+            },
+            start: 1.0,
+        };
+        c.set_mode(1.0, along(1.0));
         c.tick(1.0, &goal);
         let tick = c.tick(2.0, &goal);
         let Role::Track { reference } = role_of(&tick, 1) else {
@@ -527,7 +605,7 @@ mod tests {
         // Driven backwards the members would jackknife as trailers: they keep the MPC's
         // alignment of their pairs.
         let mut c = c0.clone();
-        c.set_mode(1.0, Mode::Velocity { v: -0.05, w: 0.3 });
+        c.set_mode(1.0, along(-1.0));
         let tick = c.tick(2.0, &goal);
         for me in [2, 3] {
             assert!(

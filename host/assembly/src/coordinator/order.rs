@@ -23,8 +23,10 @@ impl Coordinator {
     /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
     /// segments so that each segment has one leader, 5.5.9).
     pub(super) fn choose_active(&self, segments: &BTreeMap<RobotId, usize>) -> Vec<usize> {
-        if let Some(seed) = self.grow {
-            return self.choose_grow(segments, seed);
+        if self.grow.is_some() {
+            return self
+                .grow_home(segments)
+                .map_or_else(Vec::new, |home| self.choose_grow(segments, home));
         }
         let drivable: BTreeSet<usize> = segments
             .iter()

@@ -83,8 +83,16 @@ impl Coordinator {
                 .live_pairs(&members[&seg])
                 .iter()
                 .all(|&i| self.pairs[i].pair.kind == PairType::AnchorOpening);
+            // A train in a velocity behaviour follows its leader's path ([`train`]).
+            let paths = if train && moving && matches!(self.mode, Mode::Velocity { .. }) {
+                self.train_references(&members[&seg], leader, t)
+            } else {
+                None
+            };
             let hitched = match &role {
-                Role::Track { reference } if train && !matches!(self.mode, Mode::Form) => {
+                Role::Track { reference }
+                    if train && paths.is_none() && !matches!(self.mode, Mode::Form) =>
+                {
                     self.hitch_commands(leader, reference, &via)
                 }
                 _ => BTreeMap::new(),
@@ -92,6 +100,13 @@ impl Coordinator {
             for &m in &members[&seg] {
                 if m == leader {
                     roles.insert(m, (role.clone(), Some(leader)));
+                    continue;
+                }
+                if let Some(reference) = paths.as_ref().and_then(|p| p.get(&m)) {
+                    let own = Role::Track {
+                        reference: reference.clone(),
+                    };
+                    roles.insert(m, (own, Some(leader)));
                     continue;
                 }
                 if moving && !rigid.contains(&m) {
@@ -207,7 +222,9 @@ impl Coordinator {
                             continue;
                         }
                     }
-                    let home = self.grow.and_then(|seed| segments.get(&seed).copied());
+                    let home = self
+                        .grow_home(segments)
+                        .and_then(|seed| segments.get(&seed).copied());
                     if let Some(train) = self.lane_train_roles(i, segments) {
                         // The lane pilot's train drives straight up to the seed's assembly,
                         // which holds.
@@ -289,10 +306,11 @@ impl Coordinator {
                     let leader = self.motion_leader(m);
                     // The commanded (v, ω) integrated from where the leader was when the
                     // motion started: a reference that does not drift with tracking errors.
+                    let to = self.feasible_twist(m, [*v, *w]);
                     let role = match self.motion_start.get(&leader) {
                         Some(m) => Role::Track {
                             reference: (0..=self.cfg.horizon_steps)
-                                .map(|k| ramp_pose(m, [*v, *w], t - m.t0 + k as f64 * self.cfg.dt))
+                                .map(|k| ramp_pose(m, to, t - m.t0 + k as f64 * self.cfg.dt))
                                 .collect(),
                         },
                         None => Role::Velocity { v: *v, w: *w },

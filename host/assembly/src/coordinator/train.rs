@@ -1,0 +1,335 @@
+//! Moving a train (a chain of anchor pairs, THESIS 5.2.2 "line") along its leader's path.
+//!
+//! Every member tracks its own pose on one path: the chain as it stood when the motion
+//! started, continued by the leader's velocity reference. A member `s` metres behind the
+//! leader along the chain is, at every instant, `s` metres behind the leader's reference
+//! along that path, heading along it. The references are absolute: a member corrects its own
+//! error against its own reference and passes nothing on to the next. Driving each member's
+//! connection point after its neighbour's instead (a trailer behind its hitch) hands every
+//! yaw disturbance down the chain enlarged by the ratio of the anchor's lever behind the
+//! neighbour's axle to the opening's ahead of the member's own (32 mm / 18 mm for the default
+//! geometry), so a line of ten amplifies a tracking error of its head a hundredfold and pops
+//! its anchors under latency and model mismatch.
+
+use super::*;
+
+/// Integration step of the leader's reference along the path (s).
+const PATH_STEP_S: f64 = 0.01;
+
+/// The path of one train (`samples` in increasing arc length σ; σ = 0 at the leader's
+/// start) and where each member sits on it.
+#[derive(Debug, Clone)]
+pub(super) struct TrainPath {
+    /// (σ (m), pose) along the path.
+    samples: Vec<(f64, Pose2)>,
+    /// The leader's reference: (time after the start (s), σ (m)), from the first sample at
+    /// or after σ = 0.
+    times: Vec<(f64, f64)>,
+    /// Each member's σ at the start: negative behind the leader in the direction of travel.
+    place: BTreeMap<RobotId, f64>,
+    /// The leader's reference: origin, target (v, ω), integrated state (x, y, yaw, t).
+    start: MotionStart,
+    to: [f64; 2],
+    state: [f64; 4],
+}
+
+impl TrainPath {
+    /// The path of a train whose members stand at `chain` (ordered along the chain, either
+    /// way), led by `leader` whose velocity reference starts at `start` and ramps to `to`.
+    /// `None` when the reference does not advance along one direction (turning on the spot,
+    /// or reversing during the ramp): such a motion is not a path.
+    pub fn new(
+        chain: &[(RobotId, Pose2)],
+        leader: RobotId,
+        start: MotionStart,
+        to: [f64; 2],
+    ) -> Option<TrainPath> {
+        let forward = to[0] + start.from[0];
+        if to[0].abs() < 1e-3 || start.from[0] * to[0] < 0.0 || forward == 0.0 {
+            return None;
+        }
+        let li = chain.iter().position(|(id, _)| *id == leader)?;
+        // The direction of travel along the chain: the leader's driving direction.
+        let dir = forward.signum();
+        let lp = chain[li].1;
+        let lyaw = lp.yaw;
+        let travel = [dir * lyaw.cos(), dir * lyaw.sin()];
+        // Arc length from the leader along the chain, signed by the direction of travel.
+        let mut place = BTreeMap::from([(leader, 0.0)]);
+        for step in [-1isize, 1] {
+            let mut s = 0.0;
+            let mut prev = lp;
+            let mut sign = 0.0;
+            let mut i = li as isize + step;
+            while i >= 0 && (i as usize) < chain.len() {
+                let (id, p) = chain[i as usize];
+                s += (p.x - prev.x).hypot(p.y - prev.y);
+                prev = p;
+                i += step;
+                // Which side of the leader this end of the chain lies on (from the
+                // leader's neighbour: a bent chain may curl back past the leader's axle).
+                if sign == 0.0 {
+                    let side = (p.x - lp.x) * travel[0] + (p.y - lp.y) * travel[1];
+                    sign = if side < 0.0 { -1.0 } else { 1.0 };
+                }
+                place.insert(id, sign * s);
+            }
+        }
+        let mut behind: Vec<(f64, Pose2)> = chain
+            .iter()
+            .filter_map(|(id, p)| place.get(id).filter(|s| **s < 0.0).map(|s| (*s, *p)))
+            .collect();
+        behind.sort_by(|a, b| a.0.total_cmp(&b.0));
+        behind.push((0.0, start.pose));
+        Some(TrainPath {
+            samples: behind,
+            times: vec![(0.0, 0.0)],
+            place,
+            start,
+            to,
+            state: [0.0; 4],
+        })
+    }
+
+    /// Integrates the leader's reference on to time `t` after the start (the midpoint rule
+    /// of [`ramp_pose`], continued).
+    fn extend_to(&mut self, t: f64) {
+        let r = VELOCITY_RAMP_S;
+        let (m, to) = (self.start, self.to);
+        while self.state[3] < t {
+            let h = PATH_STEP_S;
+            let tm = self.state[3] + 0.5 * h;
+            let s = (tm / r).clamp(0.0, 1.0);
+            let v = m.from[0] + (to[0] - m.from[0]) * s;
+            let w = m.from[1] + (to[1] - m.from[1]) * s;
+            let mid = self.state[2] + 0.5 * h * w;
+            self.state[0] += h * v * mid.cos();
+            self.state[1] += h * v * mid.sin();
+            self.state[2] += h * w;
+            self.state[3] += h;
+            let pose = m
+                .pose
+                .compose(&Pose2::new(self.state[0], self.state[1], self.state[2]));
+            let last = self.samples[self.samples.len() - 1];
+            let sigma = last.0 + (pose.x - last.1.x).hypot(pose.y - last.1.y);
+            self.samples.push((sigma, pose));
+            self.times.push((self.state[3], sigma));
+        }
+    }
+
+    /// The leader's σ at time `t` after the start.
+    fn sigma_at(&self, t: f64) -> f64 {
+        let i = self.times.partition_point(|(tt, _)| *tt <= t);
+        if i == 0 {
+            return 0.0;
+        }
+        if i >= self.times.len() {
+            return self.times[self.times.len() - 1].1;
+        }
+        let (t0, s0) = self.times[i - 1];
+        let (t1, s1) = self.times[i];
+        s0 + (s1 - s0) * ((t - t0) / (t1 - t0).max(1e-12))
+    }
+
+    /// The pose at arc length `sigma` (clamped to the path; interpolated between samples).
+    fn pose_at(&self, sigma: f64) -> Pose2 {
+        let i = self.samples.partition_point(|(s, _)| *s <= sigma);
+        if i == 0 {
+            return self.samples[0].1;
+        }
+        if i >= self.samples.len() {
+            return self.samples[self.samples.len() - 1].1;
+        }
+        let (s0, p0) = self.samples[i - 1];
+        let (s1, p1) = self.samples[i];
+        let f = ((sigma - s0) / (s1 - s0).max(1e-12)).clamp(0.0, 1.0);
+        Pose2::new(
+            p0.x + (p1.x - p0.x) * f,
+            p0.y + (p1.y - p0.y) * f,
+            p0.yaw + wrap_angle(p1.yaw - p0.yaw) * f,
+        )
+    }
+
+    /// `member`'s reference at the times `t + k · dt` after the start (k = 0 … `steps`), or
+    /// `None` for a robot that is not in the train.
+    pub fn reference(
+        &mut self,
+        member: RobotId,
+        t: f64,
+        dt: f64,
+        steps: usize,
+    ) -> Option<Vec<Pose2>> {
+        let place = *self.place.get(&member)?;
+        let end = t + steps as f64 * dt;
+        self.extend_to(end + PATH_STEP_S);
+        // A member ahead of the leader needs the path that far ahead of the leader's
+        // reference: integrate until it is there (the reference advances at least at the
+        // target speed once the ramp is over).
+        let target = self.sigma_at(end) + place.max(0.0);
+        let mut guard = 0;
+        while self.samples[self.samples.len() - 1].0 < target && guard < 100_000 {
+            let next = self.state[3] + PATH_STEP_S;
+            self.extend_to(next);
+            guard += 1;
+        }
+        Some(
+            (0..=steps)
+                .map(|k| self.pose_at(self.sigma_at(t + k as f64 * dt) + place))
+                .collect(),
+        )
+    }
+}
+
+impl Coordinator {
+    /// The (v, ω) a velocity behaviour asks of the segment `members`, its turn widened to a
+    /// pilot's smallest radius when the segment is a train with a pilot: every member of a
+    /// train follows the same path, and a pilot turns no tighter than
+    /// [`CoordinatorConfig::pilot_turn_radius`] (THESIS 3.5.1, 5.4.1).
+    pub(super) fn feasible_twist(&self, members: &[RobotId], [v, w]: [f64; 2]) -> [f64; 2] {
+        let pilot = members.iter().any(|&m| self.kind_of(m) == RobotKind::Pilot);
+        if !pilot || members.len() < 2 || self.chain_order(members).is_none() {
+            return [v, w];
+        }
+        let max = v.abs() / self.cfg.pilot_turn_radius.max(1e-6);
+        [v, w.clamp(-max, max)]
+    }
+
+    /// The members of a train (live anchor pairs among `members`) in order along the chain,
+    /// from the robot whose opening is free; `None` unless the pairs form one open chain
+    /// through every member.
+    pub(super) fn chain_order(&self, members: &[RobotId]) -> Option<Vec<RobotId>> {
+        let live = self.live_pairs(members);
+        if live
+            .iter()
+            .any(|&i| self.pairs[i].pair.kind != PairType::AnchorOpening)
+        {
+            return None;
+        }
+        let head = members
+            .iter()
+            .copied()
+            .find(|&r| !live.iter().any(|&i| self.pairs[i].pair.b == r))?;
+        let mut order = vec![head];
+        while let Some(next) = live.iter().find_map(|&i| {
+            let p = &self.pairs[i].pair;
+            (p.a == *order.last()?).then_some(p.b)
+        }) {
+            if order.contains(&next) {
+                return None;
+            }
+            order.push(next);
+        }
+        (order.len() == members.len()).then_some(order)
+    }
+
+    /// References of every member of the train led by `leader` in a velocity behaviour
+    /// (see the module documentation), or `None` when this motion is not one along a path
+    /// (then the members are towed as trailers, [`Self::hitch_commands`]).
+    pub(super) fn train_references(
+        &self,
+        members: &[RobotId],
+        leader: RobotId,
+        t: f64,
+    ) -> Option<BTreeMap<RobotId, Vec<Pose2>>> {
+        let Mode::Velocity { v, w } = self.mode else {
+            return None;
+        };
+        let start = *self.motion_start.get(&leader)?;
+        let mut trains = self.trains.borrow_mut();
+        if !trains.contains_key(&leader) {
+            let order = self.chain_order(members)?;
+            let chain: Vec<(RobotId, Pose2)> = order
+                .iter()
+                .map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
+                .collect::<Option<_>>()?;
+            let to = self.feasible_twist(members, [v, w]);
+            trains.insert(leader, TrainPath::new(&chain, leader, start, to)?);
+        }
+        let path = trains.get_mut(&leader)?;
+        let (dt, steps) = (self.cfg.dt, self.cfg.horizon_steps);
+        members
+            .iter()
+            .map(|&m| Some((m, path.reference(m, t - start.t0, dt, steps)?)))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coordinator::fixtures::*;
+
+    fn reference_of(tick: &Tick, id: RobotId) -> Vec<Pose2> {
+        match role_of(tick, id) {
+            Role::Track { reference } => reference.clone(),
+            other => panic!("robot {id}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_train_in_a_velocity_behaviour_follows_its_leaders_path() {
+        let robots = [
+            np(1, 0.0, 0.0, 0.0),
+            np(2, -0.1, 0.0, 0.0),
+            np(3, -0.2, 0.0, 0.0),
+        ];
+        let (mut c, goal) = formed(ShapeSpec::Line, &robots);
+        let start = |id: RobotId| goal.iter().find(|r| r.id == id).unwrap().pose;
+        let (v, w) = (0.05, 0.3);
+        c.set_mode(1.0, Mode::Velocity { v, w });
+        c.tick(1.0, &goal);
+        // Early on, the members behind the head advance along the chain as it stood.
+        let tick = c.tick(1.5, &goal);
+        let lead = reference_of(&tick, 1)[0];
+        let advanced = (lead.x - start(1).x).hypot(lead.y - start(1).y);
+        assert!(advanced > 1e-4, "the head's reference moved: {lead:?}");
+        for id in [2, 3] {
+            let r = reference_of(&tick, id)[0];
+            assert!(
+                (r.x - (start(id).x + advanced)).abs() < 1e-4 && r.y.abs() < 1e-9,
+                "robot {id} on the chain behind the head: {r:?}"
+            );
+        }
+        // Later, every member is on the head's circle (radius v / ω after the ramp), its arc
+        // distance from the head's reference the one it had along the chain.
+        let tick = c.tick(1.0 + VELOCITY_RAMP_S + 6.0, &goal);
+        let head = reference_of(&tick, 1);
+        let radius = v / w;
+        let centre = head[0].compose(&Pose2::new(0.0, radius, 0.0));
+        for (id, behind) in [(2, 0.05), (3, 0.1)] {
+            let r = reference_of(&tick, id);
+            assert_eq!(r.len(), head.len(), "a reference over the whole horizon");
+            let off = (r[0].x - centre.x).hypot(r[0].y - centre.y) - radius;
+            assert!(
+                off.abs() < 2e-3,
+                "robot {id} {off} off the circle: {:?}",
+                r[0]
+            );
+            let arc = wrap_angle(head[0].yaw - r[0].yaw) * radius;
+            assert!(
+                (arc - behind).abs() < 2e-3,
+                "robot {id}: arc {arc} behind the head"
+            );
+        }
+        // Backing, the tail leads and the others follow its path the other way.
+        let mut c2 = formed(ShapeSpec::Line, &robots).0;
+        c2.set_mode(1.0, Mode::Velocity { v: -v, w });
+        c2.tick(1.0, &goal);
+        let tick = c2.tick(1.0 + VELOCITY_RAMP_S + 6.0, &goal);
+        let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
+        assert_eq!(
+            leaders,
+            BTreeSet::from([Some(3)]),
+            "the tail leads backwards"
+        );
+        let tail = reference_of(&tick, 3)[0];
+        for (id, ahead) in [(2, 0.05), (1, 0.1)] {
+            let r = reference_of(&tick, id)[0];
+            let gap = (r.x - tail.x).hypot(r.y - tail.y);
+            assert!(
+                gap > 0.9 * ahead && gap <= ahead + 1e-6,
+                "robot {id}: {gap} from the tail"
+            );
+        }
+    }
+}
