@@ -171,58 +171,40 @@ impl Coordinator {
             .unwrap_or(members[0])
     }
 
-    /// Leader of a train (a chain of anchor pairs `live` among `members`): walking from the
-    /// end that leads in the direction of travel (the head, whose opening is free, when
-    /// driving forwards; the tail, whose anchor is free, when backing), the first non-pilot.
-    /// Every member behind it is then towed as a trailer ([`Self::hitch_commands`]) and at
-    /// most the pilots ahead of it are pushed: a chain pushed from behind buckles at its
-    /// anchors (each pushed member turns the next one away until the anchors' yaw range
-    /// pops a leg, THESIS 4.2.2), while a towed chain straightens behind its head.
+    /// Leader of a train (a chain of anchor pairs `live` among `members`): the end that
+    /// leads in the direction of travel (the head, whose opening is free, when driving
+    /// forwards; the tail, whose anchor is free, when backing), pilot or not. Every other
+    /// member follows it along its path ([`super::train`]) and nobody is pushed: a member
+    /// pushed from behind buckles the chain at its anchors (a pushed pilot, which turns no
+    /// tighter than its butterfly allows, jackknifes until the anchor's yaw range pops a
+    /// leg, THESIS 4.2.2), while a towed chain straightens behind its head.
     fn train_leader(&self, members: &[RobotId], live: &[usize]) -> RobotId {
         let backwards = match &self.mode {
             Mode::Velocity { v, .. } => *v < 0.0,
             _ => false,
-        };
-        // Along the chain: the anchor robot of a pair stands ahead of the opening robot.
-        let behind = |r: RobotId| -> Option<RobotId> {
-            live.iter().find_map(|&i| {
-                let p = &self.pairs[i].pair;
-                if backwards {
-                    (p.b == r).then_some(p.a)
-                } else {
-                    (p.a == r).then_some(p.b)
-                }
-            })
         };
         let fallback = members
             .iter()
             .copied()
             .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
             .unwrap_or(members[0]);
-        // The leading end: nobody ahead of it in the direction of travel.
-        let Some(end) = members.iter().copied().find(|&r| {
-            !live.iter().any(|&i| {
-                let p = &self.pairs[i].pair;
-                if backwards {
-                    p.a == r
-                } else {
-                    p.b == r
-                }
+        // The leading end: nobody ahead of it in the direction of travel (the anchor robot
+        // of a pair stands ahead of the opening robot).
+        members
+            .iter()
+            .copied()
+            .find(|&r| {
+                !live.iter().any(|&i| {
+                    let p = &self.pairs[i].pair;
+                    if backwards {
+                        p.a == r
+                    } else {
+                        p.b == r
+                    }
+                })
             })
-        }) else {
-            return fallback; // a closed loop of anchors has no end
-        };
-        let mut r = end;
-        for _ in 0..members.len() {
-            if self.kind_of(r) == RobotKind::NonPilot {
-                return r;
-            }
-            match behind(r) {
-                Some(next) => r = next,
-                None => break,
-            }
-        }
-        fallback
+            // A closed loop of anchors has no end.
+            .unwrap_or(fallback)
     }
 
     /// Pose of `member` in `leader`'s body frame: planned when both are in the plan.

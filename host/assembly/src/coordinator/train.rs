@@ -16,6 +16,10 @@ use super::*;
 /// Integration step of the leader's reference along the path (s).
 const PATH_STEP_S: f64 = 0.01;
 
+/// How far behind its place on the path a lagging member is looked for (m): beyond that it
+/// has lost the train (a popped anchor, re-coupled by the formation step).
+const LAG_SEARCH: f64 = 0.5;
+
 /// The path of one train (`samples` in increasing arc length σ; σ = 0 at the leader's
 /// start) and where each member sits on it.
 #[derive(Debug, Clone)]
@@ -150,11 +154,50 @@ impl TrainPath {
         )
     }
 
+    /// The arc length of the path point nearest `p`, searched from `back` behind `guess` to
+    /// `ahead` beyond it (a path that turns full circle passes the same place again).
+    fn project(&self, p: [f64; 2], guess: f64, back: f64, ahead: f64) -> f64 {
+        let lo = self.samples.partition_point(|(s, _)| *s < guess - back);
+        let hi = self.samples.partition_point(|(s, _)| *s <= guess + ahead);
+        let mut best = (f64::INFINITY, guess);
+        for k in lo.max(1)..hi.min(self.samples.len()) {
+            let ((s0, p0), (s1, p1)) = (self.samples[k - 1], self.samples[k]);
+            let (dx, dy) = (p1.x - p0.x, p1.y - p0.y);
+            let len2 = dx * dx + dy * dy;
+            let f = if len2 > 0.0 {
+                (((p[0] - p0.x) * dx + (p[1] - p0.y) * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let d = (p0.x + f * dx - p[0]).hypot(p0.y + f * dy - p[1]);
+            if d < best.0 {
+                best = (d, s0 + f * (s1 - s0));
+            }
+        }
+        best.1
+    }
+
+    /// The member ahead of `member` in the direction of travel and its distance along the
+    /// chain (m), or `None` for the leader.
+    fn predecessor(&self, member: RobotId) -> Option<(RobotId, f64)> {
+        let own = *self.place.get(&member)?;
+        self.place
+            .iter()
+            .filter(|(_, &s)| s > own + 1e-9)
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(&id, &s)| (id, s - own))
+    }
+
     /// `member`'s reference at the times `t + k · dt` after the start (k = 0 … `steps`), or
-    /// `None` for a robot that is not in the train.
+    /// `None` for a robot that is not in the train. A member behind another keeps its
+    /// distance along the path to where that one is measured (`ahead`: its pose), advancing
+    /// with the leader's reference speed over the horizon: a member that lags (slower motors
+    /// than the host believes, a dead-band) is not pushed by the ones behind it, and its
+    /// lag reaches them only as a position along the path, never as a turn.
     pub fn reference(
         &mut self,
         member: RobotId,
+        ahead: Option<Pose2>,
         t: f64,
         dt: f64,
         steps: usize,
@@ -172,9 +215,17 @@ impl TrainPath {
             self.extend_to(next);
             guard += 1;
         }
+        let now = self.sigma_at(t);
+        let from = match (self.predecessor(member), ahead) {
+            (Some((_, gap)), Some(p)) => {
+                let theirs = self.project(p.xy(), now + place + gap, LAG_SEARCH, 2.0 * gap);
+                (theirs - gap).min(now + place)
+            }
+            _ => now + place,
+        };
         Some(
             (0..=steps)
-                .map(|k| self.pose_at(self.sigma_at(t + k as f64 * dt) + place))
+                .map(|k| self.pose_at(from + self.sigma_at(t + k as f64 * dt) - now))
                 .collect(),
         )
     }
@@ -236,20 +287,28 @@ impl Coordinator {
         };
         let start = *self.motion_start.get(&leader)?;
         let mut trains = self.trains.borrow_mut();
-        if !trains.contains_key(&leader) {
-            let order = self.chain_order(members)?;
-            let chain: Vec<(RobotId, Pose2)> = order
-                .iter()
-                .map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
-                .collect::<Option<_>>()?;
-            let to = self.feasible_twist(members, [v, w]);
-            trains.insert(leader, TrainPath::new(&chain, leader, start, to)?);
-        }
-        let path = trains.get_mut(&leader)?;
+        let path = match trains.entry(leader) {
+            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::btree_map::Entry::Vacant(e) => {
+                let order = self.chain_order(members)?;
+                let chain: Vec<(RobotId, Pose2)> = order
+                    .iter()
+                    .map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
+                    .collect::<Option<_>>()?;
+                let to = self.feasible_twist(members, [v, w]);
+                e.insert(TrainPath::new(&chain, leader, start, to)?)
+            }
+        };
         let (dt, steps) = (self.cfg.dt, self.cfg.horizon_steps);
         members
             .iter()
-            .map(|&m| Some((m, path.reference(m, t - start.t0, dt, steps)?)))
+            .map(|&m| {
+                let ahead = path
+                    .predecessor(m)
+                    .and_then(|(id, _)| self.robots.get(&id))
+                    .map(|k| k.pose);
+                Some((m, path.reference(m, ahead, t - start.t0, dt, steps)?))
+            })
             .collect()
     }
 }
@@ -266,6 +325,31 @@ mod tests {
         }
     }
 
+    /// Ticks from `t0` to `t1` (s) with every robot measured on its own reference of the
+    /// tick before (perfect tracking), except those in `stuck`, which stay where they are.
+    fn drive(
+        c: &mut Coordinator,
+        robots: &mut [RobotState],
+        t0: f64,
+        t1: f64,
+        stuck: &[RobotId],
+    ) -> Tick {
+        let mut t = t0;
+        let mut tick = c.tick(t, robots);
+        while t < t1 - 1e-9 {
+            for r in robots.iter_mut() {
+                if let Role::Track { reference } = role_of(&tick, r.id) {
+                    if !stuck.contains(&r.id) {
+                        r.pose = reference[1];
+                    }
+                }
+            }
+            t += c.cfg.dt;
+            tick = c.tick(t, robots);
+        }
+        tick
+    }
+
     #[test]
     fn a_train_in_a_velocity_behaviour_follows_its_leaders_path() {
         let robots = [
@@ -277,22 +361,22 @@ mod tests {
         let start = |id: RobotId| goal.iter().find(|r| r.id == id).unwrap().pose;
         let (v, w) = (0.05, 0.3);
         c.set_mode(1.0, Mode::Velocity { v, w });
-        c.tick(1.0, &goal);
+        let mut now = goal.clone();
         // Early on, the members behind the head advance along the chain as it stood.
-        let tick = c.tick(1.5, &goal);
+        let tick = drive(&mut c, &mut now, 1.0, 1.5, &[]);
         let lead = reference_of(&tick, 1)[0];
         let advanced = (lead.x - start(1).x).hypot(lead.y - start(1).y);
         assert!(advanced > 1e-4, "the head's reference moved: {lead:?}");
         for id in [2, 3] {
             let r = reference_of(&tick, id)[0];
             assert!(
-                (r.x - (start(id).x + advanced)).abs() < 1e-4 && r.y.abs() < 1e-9,
+                (r.x - (start(id).x + advanced)).abs() < 1e-3 && r.y.abs() < 1e-9,
                 "robot {id} on the chain behind the head: {r:?}"
             );
         }
         // Later, every member is on the head's circle (radius v / ω after the ramp), its arc
         // distance from the head's reference the one it had along the chain.
-        let tick = c.tick(1.0 + VELOCITY_RAMP_S + 6.0, &goal);
+        let tick = drive(&mut c, &mut now, 1.5, 1.0 + VELOCITY_RAMP_S + 6.0, &[]);
         let head = reference_of(&tick, 1);
         let radius = v / w;
         let centre = head[0].compose(&Pose2::new(0.0, radius, 0.0));
@@ -307,15 +391,27 @@ mod tests {
             );
             let arc = wrap_angle(head[0].yaw - r[0].yaw) * radius;
             assert!(
-                (arc - behind).abs() < 2e-3,
+                (arc - behind).abs() < 5e-3,
                 "robot {id}: arc {arc} behind the head"
             );
         }
+        // A member that lags holds the ones behind it back: they keep their distance along
+        // the path to where it is, not to where it should be.
+        let mut c3 = formed(ShapeSpec::Line, &robots).0;
+        c3.set_mode(1.0, Mode::Velocity { v, w });
+        let mut lagging = goal.clone();
+        let tick = drive(&mut c3, &mut lagging, 1.0, 6.0, &[2]);
+        let r3 = reference_of(&tick, 3)[0];
+        let gap = (r3.x - start(2).x).hypot(r3.y - start(2).y);
+        assert!(
+            (gap - 0.05).abs() < 3e-3,
+            "robot 3 waits 0.05 m behind the stuck robot 2: {gap}, {r3:?}"
+        );
         // Backing, the tail leads and the others follow its path the other way.
         let mut c2 = formed(ShapeSpec::Line, &robots).0;
         c2.set_mode(1.0, Mode::Velocity { v: -v, w });
-        c2.tick(1.0, &goal);
-        let tick = c2.tick(1.0 + VELOCITY_RAMP_S + 6.0, &goal);
+        let mut back = goal.clone();
+        let tick = drive(&mut c2, &mut back, 1.0, 1.0 + VELOCITY_RAMP_S + 6.0, &[]);
         let leaders: BTreeSet<_> = tick.tasks.iter().map(|t| t.leader).collect();
         assert_eq!(
             leaders,
@@ -327,7 +423,7 @@ mod tests {
             let r = reference_of(&tick, id)[0];
             let gap = (r.x - tail.x).hypot(r.y - tail.y);
             assert!(
-                gap > 0.9 * ahead && gap <= ahead + 1e-6,
+                gap > 0.9 * ahead && gap <= ahead + 1e-3,
                 "robot {id}: {gap} from the tail"
             );
         }
