@@ -109,7 +109,12 @@ impl Coordinator {
                     roles.insert(m, (own, Some(leader)));
                     continue;
                 }
-                if moving && !rigid.contains(&m) {
+                // A mesh in a velocity behaviour moves as one body: a member hanging at an
+                // anchor tracks its place in the mesh as measured when the motion started,
+                // like the knob-locked ones (aligning its pair after its neighbour, it lags
+                // and swings until the anchor pops).
+                let mesh_body = !train && matches!(self.mode, Mode::Velocity { .. });
+                if moving && !rigid.contains(&m) && !mesh_body {
                     if let Some(&(i, next)) = via.get(&m) {
                         let own = if let Some(&[v, w]) = hitched.get(&m) {
                             Role::Hitch { pair: i, v, w }
