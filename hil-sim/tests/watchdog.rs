@@ -1,5 +1,5 @@
 //! A robot whose control task stalls: its motors keep their last duties only until the
-//! watchdog resets it (DESIGN.md §10, issue 30), then coast; it boots again, announces
+//! watchdog resets it (DESIGN.md §10), then coast; it boots again, announces
 //! with reset reason `Hang` and drives again under a new session. Its neighbour, whose
 //! loop runs normally, is never reset.
 

@@ -125,20 +125,14 @@ pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
 /// assembly moves (its role aligns it with its partner, see `Coordinator::tasks`) when that
 /// assembly is a mesh (a connected knob pair makes it rigid in part): keeps it steering in
 /// line like a knob pair does. A robot pushed along at an anchor (a pilot at the front of a
-/// driving mesh) swings into the anchor's play and turns the mesh after it. Lockstep, the
-/// grown demo over seeds 1–96 at 0 and 20 ms (2026-12-02): 109 of 192 runs passed at the
-/// anchors' 1e-3, 26 turning off their line; 124 at 0.1 (15 turning). A train keeps 1e-3: it
-/// bends in turns (0.1 for every hanging robot: the driving line 17 of 48 instead of 47; for
-/// trains only while forming: the 2×2 mesh 91 of 96 instead of 94, the grown demo 121).
+/// driving mesh) swings into the anchor's play and turns the mesh after it. A train keeps the
+/// anchors' weak heading term: it bends in turns.
 pub const HANG_HEADING: f64 = 0.1;
 
 /// Heading weight (relative to position) of a held member of a grown assembly keeping its
 /// pose (`Role::Keep`): it turns back when a robot docking at its side turns it about its
-/// anchor. Lockstep, the grown demo over seeds 1–96 at 0 and 20 ms (2026-12-02): 124 of 192
-/// runs passed with held robots at zero speed, 142 at 0.01 (timeouts 49 → 45, turning off the
-/// line 15 → 4); seeds 1–48: 73 of 96 at 0.003, 74 at 0.01, 68 at 0.03, 65 at 0.1. Keeping
-/// the held robots of every assembly, not only a grown one, broke couplings in the 2×2 mesh
-/// (41 of 48 instead of 48).
+/// anchor. Only the held robots of a grown assembly keep their poses: in an assembly formed
+/// in parallel the held robots turning back strain the couplings already made.
 pub const KEEP_HEADING: f64 = 0.01;
 
 /// Gate settings.
@@ -364,7 +358,7 @@ impl AssemblyController {
         }
     }
 
-    /// The stability gate (issue 8 item 4): for every coupled assembly that is commanded to
+    /// The stability gate: for every coupled assembly that is commanded to
     /// move, limit its advance along its heading to the proven-safe distance; stop it there.
     fn gate(
         &mut self,

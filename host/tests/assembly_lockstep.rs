@@ -1,4 +1,4 @@
-//! The assembly behaviours of issue 7 and issue 8 item 4 that `tests/tests/assembly.rs` runs
+//! The assembly behaviours that `tests/tests/assembly.rs` runs
 //! in real time over loopback, here in the simulator's lockstep world: deterministic, faster
 //! than real time, the controller seeing the simulated motion capture. What a user cares about
 //! is judged by the simulator's ground truth (couplings, poses, falls) and the controller's
@@ -16,7 +16,7 @@
 //! - six robots (one pilot) scattered over 0.6 m × 0.6 m grow a 2-row mesh around the pilot,
 //!   one robot at a time round the others, and drive it 0.5 m;
 //! - `puzzlebot demo` (the grown mesh driven 0.5 m), exactly as the binary runs it;
-//! - issue 7's full demo as `puzzlebot demo` runs it: 6 robots with 2 pilots grow a mesh,
+//! - the full demo as `puzzlebot demo` runs it: 6 robots with 2 pilots grow a mesh,
 //!   move it, dissolve it and disperse (the other demo test: one pilot);
 //! - a run with random controller latency (`Lockstep::command_jitter`) is reproducible.
 //!

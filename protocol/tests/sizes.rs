@@ -1,4 +1,4 @@
-//! The datagram size budget (issue 2; DESIGN.md §4, §9): a wheel-speed command ≤ 48 bytes,
+//! The datagram size budget (DESIGN.md §4, §9): a wheel-speed command ≤ 48 bytes,
 //! telemetry ≤ 96 bytes, any datagram ≤ 128 bytes. Sizes are measured by sealing every
 //! variant with the field values that encode shortest and longest (postcard varints grow
 //! with magnitude; floats and nonces are fixed), and a property test checks that random

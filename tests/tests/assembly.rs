@@ -1,4 +1,4 @@
-//! Assemblies end to end (issue 7, issue 8 item 4): the host's assembly controller
+//! Assemblies end to end: the host's assembly controller
 //! (coordinator → distributed MPC → drive mapping) drives a simulated fleet over loopback UDP
 //! in real time; couplings are judged by the simulator's ground truth (anchor/knob mechanics).
 

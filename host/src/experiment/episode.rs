@@ -19,7 +19,7 @@ pub fn default_shapes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assembly/data/shapes")
 }
 
-/// How badly the world treats the fleet (issue 26's profiles).
+/// How badly the world treats the fleet (the profiles of DESIGN.md §9).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Profile {

@@ -88,13 +88,9 @@ const REFINE_TARGET: f64 = 1e-12;
 /// ... and a direction whose residual stays above this is recomputed with 10× the
 /// regularisation.
 const REFINE_OK: f64 = 1e-6;
-/// Relative gap below which the corrector direction is refined. Measured over 45 benchmark
-/// problems (trees of 30–3,000 modules with six seeds each, the ground trees of 1,000 and
-/// 10,000, meshes and chains of 20–2,000), plus the mesh and chain of 10,000 alone: 1e-2 →
-/// 1e-3 keeps every iteration count and every answer and takes 11 % fewer solves and 27 %
-/// fewer matrix-free products (mesh of 1,000: 65 → 56 solves, 39 → 26 products, one more
-/// factorisation); 5e-4 saves a few more solves but adds 3 iterations over the 45, 1e-4 two
-/// iterations each for the mesh and tree of 1,000.
+/// Relative gap below which the corrector direction is refined: looser refines too early and
+/// costs solves, tighter costs iterations on the large meshes and trees (the benchmark
+/// problems of `bench_problems`).
 const REFINE_FROM_GAP: f64 = 1e-3;
 /// Iterative-refinement steps per Newton solve, at most.
 const REFINE_STEPS: usize = 4;

@@ -1,4 +1,4 @@
-//! Tests with analytic answers (issue 8 "done when").
+//! Tests with analytic answers.
 
 use puzzlebot_stability::gate::{evaluate_with, Options, Path, Verdict};
 use puzzlebot_stability::model::*;
