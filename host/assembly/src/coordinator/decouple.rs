@@ -15,7 +15,7 @@ pub(super) struct Wiggler {
     /// When the wiggle started (s).
     start: f64,
     /// Released: drives straight on (no turning) until its anchor head is clear.
-    clearing: bool,
+    pub(super) clearing: bool,
     /// A pilot whose anchor is in the wiggling robot's opening while that robot's own anchor
     /// is still held behind it: the wiggling robot turns where it is and the pilot pulls
     /// its anchor out straight ahead (pilots move straight only, THESIS 5.4.1).
@@ -632,8 +632,8 @@ mod tests {
             .map(|&i| c.pairs()[i].pair)
             .find(|p| p.a == w[0].0)
             .expect("the wiggler's pair");
-        // Its anchor pops 8 mm out: released, but not clear. It drives straight on and the
-        // other pair waits.
+        // Its anchor pops 8 mm out: released, but not clear. It drives straight on, its
+        // partner backs straight away from it, and the other pair waits.
         let (s, co) = goal
             .iter()
             .find(|r| r.id == first.a)
@@ -643,9 +643,19 @@ mod tests {
             .sin_cos();
         let out = moved(&goal, &[first.a], 0.008 * co, 0.008 * s);
         c.tick(5.2, &out);
-        let w = wiggling(&c.tick(5.3, &out));
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].0 == first.a && w[0].1 == 0.0, "drives clear: {w:?}");
+        let tick = c.tick(5.3, &out);
+        let speed = |id: RobotId| match role_of(&tick, id) {
+            Role::Velocity { v, w } => (*v, *w),
+            other => panic!("robot {id}: {other:?}"),
+        };
+        let (va, wa) = speed(first.a);
+        let (vb, wb) = speed(first.b);
+        assert!(
+            va > 0.0 && wa == 0.0,
+            "the anchor robot drives clear: {va}, {wa}"
+        );
+        assert!(vb < 0.0 && wb == 0.0, "its partner backs away: {vb}, {wb}");
+        assert_eq!(wiggling(&tick).len(), 2, "nobody else moves: {tick:?}");
         // Clear: the other pair wiggles.
         let clear = moved(&goal, &[first.a], 0.03 * co, 0.03 * s);
         let w = wiggling(&c.tick(5.4, &clear));

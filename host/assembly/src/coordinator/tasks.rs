@@ -395,7 +395,16 @@ impl Coordinator {
                         let v = self.pull_speed(&w);
                         roles.insert(p, (Role::Velocity { v, w: 0.0 }, Some(p)));
                     }
-                    roles.entry(w.partner).or_insert((Role::Hold, None));
+                    // A released pair drives apart from both ends: its partner backs away as
+                    // the clearing robot pulls (in a line the robot ahead of the clearing one
+                    // may stand still, and the pair would never get clear).
+                    let partner_role = if w.clearing && w.puller.is_none() {
+                        let v = -self.wiggle_command(&w, t).0;
+                        Role::Velocity { v, w: 0.0 }
+                    } else {
+                        Role::Hold
+                    };
+                    roles.entry(w.partner).or_insert((partner_role, None));
                 }
             }
             Mode::Disperse { goals } => {
