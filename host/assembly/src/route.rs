@@ -26,15 +26,40 @@ pub struct Field<'a> {
 impl Field<'_> {
     /// Distance to the nearest obstacle (∞ without obstacles).
     pub fn nearest(&self, p: [f64; 2]) -> f64 {
+        self.nearest_sq(p).sqrt()
+    }
+
+    /// Squared distance to the nearest obstacle (m²; the route search's inner loop: no
+    /// square root per obstacle).
+    fn nearest_sq(&self, p: [f64; 2]) -> f64 {
         self.obstacles
             .iter()
-            .map(|o| (o[0] - p[0]).hypot(o[1] - p[1]))
+            .map(|o| {
+                let (dx, dy) = (o[0] - p[0], o[1] - p[1]);
+                dx * dx + dy * dy
+            })
             .fold(f64::INFINITY, f64::min)
     }
 
     /// True when the straight segment a→b keeps the clearance (see [`Ends`] for the
     /// exceptions near its start and end).
     pub fn segment_free(&self, a: [f64; 2], b: [f64; 2], ends: &Ends) -> bool {
+        // Every obstacle at least the clearance from the whole segment: free (the samples
+        // below lie on it). Otherwise the samples decide (the relaxed ends).
+        let (ux, uy) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = ux * ux + uy * uy;
+        let clear2 = self.clearance * self.clearance;
+        if self.obstacles.iter().all(|o| {
+            let s = if len2 > 0.0 {
+                (((o[0] - a[0]) * ux + (o[1] - a[1]) * uy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let (dx, dy) = (o[0] - a[0] - s * ux, o[1] - a[1] - s * uy);
+            dx * dx + dy * dy >= clear2
+        }) {
+            return true;
+        }
         let len = (b[0] - a[0]).hypot(b[1] - a[1]);
         let n = (len / (0.5 * CELL)).ceil().max(1.0) as usize;
         (1..=n).all(|k| {
@@ -68,11 +93,17 @@ impl Ends {
         }
     }
     fn open(&self, field: &Field<'_>, p: [f64; 2]) -> bool {
-        let d = field.nearest(p);
-        let near = |q: [f64; 2]| (q[0] - p[0]).hypot(q[1] - p[1]) < NEAR_END;
-        d >= field.clearance
-            || (near(self.start) && d >= self.start_gap)
-            || (near(self.goal) && d >= self.goal_gap)
+        // Compared squared (every distance and gap here is ≥ 0, or a gap is ≤ 0 and any
+        // distance passes it).
+        let d2 = field.nearest_sq(p);
+        let at_least = |gap: f64| gap <= 0.0 || d2 >= gap * gap;
+        let near = |q: [f64; 2]| {
+            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+            dx * dx + dy * dy < NEAR_END * NEAR_END
+        };
+        at_least(field.clearance)
+            || (near(self.start) && at_least(self.start_gap))
+            || (near(self.goal) && at_least(self.goal_gap))
     }
 }
 
