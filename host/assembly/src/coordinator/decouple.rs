@@ -222,19 +222,22 @@ impl Coordinator {
         }
     }
 
-    /// Every pair of the decouple behaviour is apart: measured decoupled, or released with
-    /// its head clear (two robots that drove apart may still stand aligned).
+    /// Every pair of the decouple behaviour is apart: a knob pair measured decoupled, an
+    /// anchor pair released with its head clear. An anchor still held at the end of its
+    /// travel stands only millimetres further out than a seated one, which the poses do not
+    /// tell from a head just out of the opening; [`DECOUPLE_CLEAR`] is beyond the travel, so
+    /// a clear head cannot be a held one (the robots disperse otherwise dragging their
+    /// partner along).
     pub fn decouple_done(&self) -> bool {
         let Mode::Decouple { pairs, .. } = &self.mode else {
             return true;
         };
         pairs.iter().all(|&i| {
-            self.pairs.get(i).is_none_or(|p| {
-                p.status == PairStatus::Decoupled
-                    || (self.released.contains(&i)
-                        && p.pair.kind == PairType::AnchorOpening
-                        && p.status == PairStatus::HeadAligned
-                        && self.head_clear(p.pair.a, p.pair.b))
+            self.pairs.get(i).is_none_or(|p| match p.pair.kind {
+                PairType::KnobHole => p.status == PairStatus::Decoupled,
+                PairType::AnchorOpening => {
+                    self.released.contains(&i) && self.head_clear(p.pair.a, p.pair.b)
+                }
             })
         })
     }
