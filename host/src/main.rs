@@ -38,6 +38,25 @@ enum ModeArg {
 }
 
 #[derive(Subcommand)]
+enum FleetCmd {
+    /// Write fleet.toml (commented, loopback addresses, no robots yet) and a fresh 256-bit
+    /// fleet.key (owner-only) into DIR; never overwrites either.
+    Init {
+        /// Folder (created if missing).
+        #[arg(default_value = ".")]
+        dir: PathBuf,
+    },
+    /// Print the key robot ID is provisioned with (64 hex characters; see firmware/README.md).
+    RobotKey {
+        /// Robot id.
+        id: u16,
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
 enum Cmd {
     /// The main job on a simulated fleet: 6 robots (2 pilots set down in one lane, the rest
     /// scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals
@@ -105,6 +124,11 @@ enum Cmd {
         /// Fleet config: its key file, link address (robots send there) and pose address.
         #[arg(long)]
         fleet: PathBuf,
+    },
+    /// Set up a fleet: a config and its key, the key of each robot.
+    Fleet {
+        #[command(subcommand)]
+        cmd: FleetCmd,
     },
     /// Live table of the fleet: robot, kind, link, battery, RTT, state.
     Status {
@@ -439,6 +463,22 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             tokio::signal::ctrl_c().await?;
             sim.stop();
         }
+        Cmd::Fleet { cmd } => match cmd {
+            FleetCmd::Init { dir } => {
+                let (config, key) = puzzlebot_host::fleet_setup::init(&dir)?;
+                println!(
+                    "wrote {} and {} (owner-only; keep it off the robots and out of version control)",
+                    config.display(),
+                    key.display()
+                );
+            }
+            FleetCmd::RobotKey { id, fleet } => {
+                println!(
+                    "{}",
+                    puzzlebot_host::fleet_setup::robot_key_hex(&fleet, id)?
+                );
+            }
+        },
         Cmd::Status { fleet, seconds } => {
             let fleet = Fleet::load(&fleet)?;
             let (link, _poses) = app::start_host(&fleet).await?;

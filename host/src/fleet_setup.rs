@@ -1,0 +1,206 @@
+//! Setting up a fleet: `puzzlebot fleet init` writes a commented fleet config and a fresh
+//! fleet key; `puzzlebot fleet robot-key` prints the key one robot is provisioned with
+//! (`firmware/README.md`). Nothing is overwritten and nothing is left half-written.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use puzzlebot_protocol::messages::RobotId;
+
+use crate::config::{ConfigError, Fleet};
+
+/// Name of the fleet config `init` writes.
+pub const CONFIG_FILE: &str = "fleet.toml";
+/// Name of the key file `init` writes.
+pub const KEY_FILE: &str = "fleet.key";
+
+/// A fleet could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The file is there already; `init` never overwrites.
+    #[error("{0}: already exists; not overwritten (remove it, or choose another folder)")]
+    Exists(PathBuf),
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The fleet config or its key is not usable.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+}
+
+/// The fleet config `init` writes: loopback addresses (a lab sets its own), no robots yet.
+fn config_text() -> String {
+    format!(
+        "# PuzzleBot fleet config (host/README.md). Paths are relative to this file.\n\
+         name = \"lab\"\n\
+         # The 256-bit fleet key (64 hex characters). It never leaves the host: each robot is\n\
+         # provisioned with its own key, `puzzlebot fleet robot-key ID`.\n\
+         key_file = \"{KEY_FILE}\"\n\
+         \n\
+         [link]\n\
+         # Where the host listens for robots; a real fleet binds the lab network's address.\n\
+         bind = \"127.0.0.1:47800\"\n\
+         # Accept robots that announce but are not listed below.\n\
+         discover_unlisted = false\n\
+         \n\
+         [pose]\n\
+         # \"pbp1\" (the documented UDP pose stream, also the simulator's) or \"natnet\".\n\
+         source = \"pbp1\"\n\
+         bind = \"127.0.0.1:47810\"\n\
+         \n\
+         # One entry per robot:\n\
+         # [[robots]]\n\
+         # id = 1\n\
+         # kind = \"NonPilot\"            # or \"Pilot\"\n\
+         # params = \"robot-1.toml\"      # optional, written by `puzzlebot calibrate`\n"
+    )
+}
+
+/// Write `fleet.toml` and a fresh `fleet.key` (readable by the owner only) into `dir`,
+/// creating it. Refuses when either file exists; removes the key again when the config
+/// cannot be written. Returns both paths.
+pub fn init(dir: &Path) -> Result<(PathBuf, PathBuf), SetupError> {
+    let (config, key) = (dir.join(CONFIG_FILE), dir.join(KEY_FILE));
+    for p in [&config, &key] {
+        if p.exists() {
+            return Err(SetupError::Exists(p.clone()));
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|source| SetupError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut bytes = [0u8; 32];
+    rand::fill(&mut bytes);
+    let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
+    write_new(&key, &format!("{hex}\n"), 0o600)?;
+    if let Err(e) = write_new(&config, &config_text(), 0o644) {
+        let _ = std::fs::remove_file(&key);
+        return Err(e);
+    }
+    Ok((config, key))
+}
+
+/// Create `path` (never replacing a file) with `mode` where the platform has modes, and
+/// write `text`; a file written in part is removed.
+fn write_new(path: &Path, text: &str, mode: u32) -> Result<(), SetupError> {
+    let mut open = std::fs::OpenOptions::new();
+    open.write(true).create_new(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        open.mode(mode);
+    }
+    #[cfg(not(unix))]
+    let _ = mode;
+    let io = |source| SetupError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut f = open.open(path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::AlreadyExists {
+            SetupError::Exists(path.to_path_buf())
+        } else {
+            io(e)
+        }
+    })?;
+    if let Err(e) = f.write_all(text.as_bytes()).and_then(|_| f.sync_all()) {
+        let _ = std::fs::remove_file(path);
+        return Err(io(e));
+    }
+    Ok(())
+}
+
+/// The key robot `id` of the fleet config `fleet` is provisioned with, as 64 hex characters.
+pub fn robot_key_hex(fleet: &Path, id: RobotId) -> Result<String, SetupError> {
+    let fleet = Fleet::load(fleet)?;
+    Ok(fleet
+        .key
+        .robot_key(id)
+        .0
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!(
+            "puzzlebot-fleet-setup-{name}-{}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn init_writes_a_fleet_that_loads_and_never_overwrites_it() {
+        let d = scratch("init");
+        let (config, key) = init(&d).expect("init");
+        let fleet = Fleet::load(&config).expect("the written config loads");
+        assert!(fleet.config.robots.is_empty());
+        assert!(fleet.config.link.bind.ip().is_loopback());
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&key).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o600, "the key is readable by its owner only");
+        }
+        let before = std::fs::read_to_string(&key).unwrap();
+        let err = init(&d).unwrap_err().to_string();
+        assert!(
+            err.contains("fleet.toml: already exists"),
+            "one line naming the file: {err}"
+        );
+        assert_eq!(std::fs::read_to_string(&key).unwrap(), before, "key kept");
+        // Each init makes its own key.
+        let d2 = scratch("init2");
+        let (_, key2) = init(&d2).unwrap();
+        assert_ne!(std::fs::read_to_string(key2).unwrap(), before);
+        let _ = std::fs::remove_dir_all(&d);
+        let _ = std::fs::remove_dir_all(&d2);
+    }
+
+    #[test]
+    fn a_key_file_alone_is_not_replaced_and_no_config_is_left_behind() {
+        let d = scratch("key-only");
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join(KEY_FILE), "old").unwrap();
+        let err = init(&d).unwrap_err().to_string();
+        assert!(err.contains("fleet.key: already exists"), "{err}");
+        assert!(!d.join(CONFIG_FILE).exists(), "nothing half-written");
+        assert_eq!(std::fs::read_to_string(d.join(KEY_FILE)).unwrap(), "old");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn robot_keys_are_the_fleet_keys_derivation_and_a_bad_key_is_named() {
+        let d = scratch("robot-key");
+        let (config, _) = init(&d).unwrap();
+        let fleet = Fleet::load(&config).unwrap();
+        let want: String = fleet
+            .key
+            .robot_key(3)
+            .0
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        assert_eq!(robot_key_hex(&config, 3).unwrap(), want);
+        assert_ne!(robot_key_hex(&config, 4).unwrap(), want);
+        std::fs::write(d.join(KEY_FILE), "not hex\n").unwrap();
+        let err = robot_key_hex(&config, 3).unwrap_err().to_string();
+        assert!(
+            err.contains("fleet.key") && err.contains("64 hexadecimal"),
+            "{err}"
+        );
+        let _ = std::fs::remove_dir_all(&d);
+    }
+}
