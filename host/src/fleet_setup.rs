@@ -1,11 +1,12 @@
 //! Setting up a fleet: `puzzlebot fleet init` writes a commented fleet config and a fresh
-//! fleet key; `puzzlebot fleet robot-key` prints the key one robot is provisioned with
-//! (`firmware/README.md`). Nothing is overwritten and nothing is left half-written.
+//! fleet key; `puzzlebot fleet add` lists a robot in it; `puzzlebot fleet robot-key` prints
+//! the key one robot is provisioned with (`firmware/README.md`). Nothing is overwritten and
+//! nothing is left half-written.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use puzzlebot_protocol::messages::RobotId;
+use puzzlebot_protocol::messages::{RobotId, RobotKind};
 
 use crate::config::{ConfigError, Fleet};
 
@@ -31,6 +32,14 @@ pub enum SetupError {
     /// The fleet config or its key is not usable.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The robot is listed already.
+    #[error("{path}: robots: robot {id} is listed already")]
+    Duplicate {
+        /// The fleet config.
+        path: PathBuf,
+        /// The robot id.
+        id: RobotId,
+    },
 }
 
 /// The fleet config `init` writes: loopback addresses (a lab sets its own), no robots yet.
@@ -116,6 +125,43 @@ fn write_new(path: &Path, text: &str, mode: u32) -> Result<(), SetupError> {
     Ok(())
 }
 
+/// List robot `id` of `kind` in the fleet config `fleet` (appended as a `[[robots]]` entry,
+/// the rest of the file and its comments kept). The config must load before and after;
+/// the new text replaces the file only once it has loaded (written beside it, then
+/// renamed), so a failure leaves the file as it was.
+pub fn add_robot(fleet: &Path, id: RobotId, kind: RobotKind) -> Result<(), SetupError> {
+    let loaded = Fleet::load(fleet)?;
+    if loaded.config.robots.iter().any(|r| r.id == id) {
+        return Err(SetupError::Duplicate {
+            path: fleet.to_path_buf(),
+            id,
+        });
+    }
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| SetupError::Io { path, source }
+    };
+    let mut text = std::fs::read_to_string(fleet).map_err(io(fleet))?;
+    if !text.is_empty() && !text.ends_with('\n') {
+        text.push('\n');
+    }
+    text.push_str(&format!("\n[[robots]]\nid = {id}\nkind = \"{kind:?}\"\n"));
+    let name = fleet
+        .file_name()
+        .map_or_else(|| "fleet.toml".into(), |n| n.to_string_lossy().into_owned());
+    let next = fleet.with_file_name(format!(".{name}.new"));
+    let _ = std::fs::remove_file(&next);
+    write_new(&next, &text, 0o644)?;
+    if let Err(e) = Fleet::load(&next) {
+        let _ = std::fs::remove_file(&next);
+        return Err(e.into());
+    }
+    std::fs::rename(&next, fleet).map_err(|e| {
+        let _ = std::fs::remove_file(&next);
+        io(fleet)(e)
+    })
+}
+
 /// The key robot `id` of the fleet config `fleet` is provisioned with, as 64 hex characters.
 pub fn robot_key_hex(fleet: &Path, id: RobotId) -> Result<String, SetupError> {
     let fleet = Fleet::load(fleet)?;
@@ -178,6 +224,36 @@ mod tests {
         assert!(err.contains("fleet.key: already exists"), "{err}");
         assert!(!d.join(CONFIG_FILE).exists(), "nothing half-written");
         assert_eq!(std::fs::read_to_string(d.join(KEY_FILE)).unwrap(), "old");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn robots_are_added_once_and_the_config_keeps_its_comments() {
+        let d = scratch("add");
+        let (config, _) = init(&d).unwrap();
+        add_robot(&config, 3, RobotKind::Pilot).expect("add 3");
+        add_robot(&config, 4, RobotKind::NonPilot).expect("add 4");
+        let fleet = Fleet::load(&config).unwrap();
+        let listed: Vec<(RobotId, RobotKind)> =
+            fleet.config.robots.iter().map(|r| (r.id, r.kind)).collect();
+        assert_eq!(
+            listed,
+            vec![(3, RobotKind::Pilot), (4, RobotKind::NonPilot)]
+        );
+        let text = std::fs::read_to_string(&config).unwrap();
+        assert!(text.contains("# PuzzleBot fleet config"), "comments kept");
+        let err = add_robot(&config, 3, RobotKind::NonPilot)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("fleet.toml: robots: robot 3 is listed already"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&config).unwrap(), text, "unchanged");
+        // A config that does not load is left as it is.
+        std::fs::write(&config, "name = 5\n").unwrap();
+        assert!(add_robot(&config, 5, RobotKind::Pilot).is_err());
+        assert_eq!(std::fs::read_to_string(&config).unwrap(), "name = 5\n");
         let _ = std::fs::remove_dir_all(&d);
     }
 

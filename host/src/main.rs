@@ -37,6 +37,14 @@ enum ModeArg {
     Duty,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum KindArg {
+    /// Four wheels, climbs a platform edge, turns poorly.
+    Pilot,
+    /// Two wheels and casters, turns on the spot.
+    NonPilot,
+}
+
 #[derive(Subcommand)]
 enum FleetCmd {
     /// Write fleet.toml (commented, loopback addresses, no robots yet) and a fresh 256-bit
@@ -45,6 +53,18 @@ enum FleetCmd {
         /// Folder (created if missing).
         #[arg(default_value = ".")]
         dir: PathBuf,
+    },
+    /// List a robot in the fleet config (never twice; the rest of the file is kept).
+    Add {
+        /// Robot id (as provisioned).
+        #[arg(long)]
+        id: u16,
+        /// Pilot or non-pilot.
+        #[arg(long, value_enum)]
+        kind: KindArg,
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
     },
     /// Print the key robot ID is provisioned with (64 hex characters; see firmware/README.md).
     RobotKey {
@@ -471,6 +491,14 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     config.display(),
                     key.display()
                 );
+            }
+            FleetCmd::Add { id, kind, fleet } => {
+                let kind = match kind {
+                    KindArg::Pilot => puzzlebot_params::RobotKind::Pilot,
+                    KindArg::NonPilot => puzzlebot_params::RobotKind::NonPilot,
+                };
+                puzzlebot_host::fleet_setup::add_robot(&fleet, id, kind)?;
+                println!("{}: robot {id} ({kind:?}) listed", fleet.display());
             }
             FleetCmd::RobotKey { id, fleet } => {
                 println!(
