@@ -174,6 +174,66 @@ pub fn robot_key_hex(fleet: &Path, id: RobotId) -> Result<String, SetupError> {
         .collect())
 }
 
+/// `puzzlebot fleet check`: one line per listed robot (online, announced kind, firmware
+/// version) and the problems found: a listed robot offline or without a session, a kind
+/// other than the config's, firmware versions that differ, robots online but not listed.
+/// No problems: ready to run.
+pub fn check_report(
+    listed: &[crate::config::RobotEntry],
+    statuses: &[crate::link::RobotStatus],
+) -> (String, Vec<String>) {
+    let mut table = format!(
+        "{:>5}  {:<9} {:<9} {:<8} {}\n",
+        "robot", "listed", "announced", "link", "firmware"
+    );
+    let mut problems = Vec::new();
+    let kind = |k: Option<RobotKind>| match k {
+        Some(RobotKind::Pilot) => "pilot",
+        Some(RobotKind::NonPilot) => "non-pilot",
+        None => "-",
+    };
+    let mut versions = std::collections::BTreeSet::new();
+    for r in listed {
+        let s = statuses.iter().find(|s| s.id == r.id);
+        let online = s.is_some_and(|s| s.online && s.established);
+        let announced = s.and_then(|s| s.kind);
+        let firmware = s.and_then(|s| s.firmware);
+        table.push_str(&format!(
+            "{:>5}  {:<9} {:<9} {:<8} {}\n",
+            r.id,
+            kind(Some(r.kind)),
+            kind(announced),
+            if online { "online" } else { "offline" },
+            firmware.map_or_else(|| "-".into(), |(a, b, c)| format!("{a}.{b}.{c}"))
+        ));
+        if !online {
+            problems.push(format!("robot {}: not online with a session", r.id));
+        }
+        if announced.is_some_and(|k| k != r.kind) {
+            problems.push(format!(
+                "robot {}: announces itself as {} but is listed as {}",
+                r.id,
+                kind(announced),
+                kind(Some(r.kind))
+            ));
+        }
+        versions.extend(firmware);
+    }
+    if versions.len() > 1 {
+        let v: Vec<String> = versions
+            .iter()
+            .map(|(a, b, c)| format!("{a}.{b}.{c}"))
+            .collect();
+        problems.push(format!("firmware versions differ: {}", v.join(", ")));
+    }
+    for s in statuses {
+        if s.online && !listed.iter().any(|r| r.id == s.id) {
+            problems.push(format!("robot {}: online but not listed", s.id));
+        }
+    }
+    (table, problems)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -255,6 +315,56 @@ mod tests {
         assert!(add_robot(&config, 5, RobotKind::Pilot).is_err());
         assert_eq!(std::fs::read_to_string(&config).unwrap(), "name = 5\n");
         let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn the_check_names_offline_robots_wrong_kinds_and_mixed_firmware() {
+        use crate::config::RobotEntry;
+        use crate::link::{LinkStats, RobotStatus};
+        let entry = |id, kind| RobotEntry {
+            id,
+            kind,
+            params: None,
+        };
+        let status = |id, kind, firmware| RobotStatus {
+            id,
+            kind: Some(kind),
+            firmware: Some(firmware),
+            addr: None,
+            online: true,
+            established: true,
+            silent_s: Some(0.0),
+            telemetry: None,
+            telemetry_t: None,
+            stats: LinkStats::default(),
+        };
+        let listed = [entry(1, RobotKind::Pilot), entry(2, RobotKind::NonPilot)];
+        let ready = [
+            status(1, RobotKind::Pilot, (0, 3, 0)),
+            status(2, RobotKind::NonPilot, (0, 3, 0)),
+        ];
+        let (table, problems) = check_report(&listed, &ready);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(table.lines().count(), 3, "{table}");
+        let wrong = [
+            status(1, RobotKind::NonPilot, (0, 3, 0)),
+            status(5, RobotKind::NonPilot, (0, 4, 0)),
+        ];
+        let (_, problems) = check_report(&listed, &wrong);
+        assert_eq!(
+            problems,
+            vec![
+                "robot 1: announces itself as non-pilot but is listed as pilot".to_string(),
+                "robot 2: not online with a session".to_string(),
+                "robot 5: online but not listed".to_string(),
+            ]
+        );
+        let mixed = [
+            status(1, RobotKind::Pilot, (0, 3, 0)),
+            status(2, RobotKind::NonPilot, (0, 4, 0)),
+        ];
+        let (_, problems) = check_report(&listed, &mixed);
+        assert_eq!(problems, vec!["firmware versions differ: 0.3.0, 0.4.0"]);
     }
 
     #[test]

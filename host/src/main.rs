@@ -66,6 +66,17 @@ enum FleetCmd {
         #[arg(long, default_value = "fleet.toml")]
         fleet: PathBuf,
     },
+    /// Check a fleet before a run: the config and key load, every listed robot is online
+    /// with a session and announces the kind it is listed as, firmware versions agree.
+    /// Exits non-zero with the problems otherwise.
+    Check {
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
+        /// Wait at most this long for the robots (s).
+        #[arg(long, default_value_t = 3.0)]
+        seconds: f64,
+    },
     /// Print the key robot ID is provisioned with (64 hex characters; see firmware/README.md).
     RobotKey {
         /// Robot id.
@@ -499,6 +510,24 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 };
                 puzzlebot_host::fleet_setup::add_robot(&fleet, id, kind)?;
                 println!("{}: robot {id} ({kind:?}) listed", fleet.display());
+            }
+            FleetCmd::Check { fleet, seconds } => {
+                let fleet = Fleet::load(&fleet)?;
+                let (link, _poses) = app::start_host(&fleet).await?;
+                let listed = &fleet.config.robots;
+                let end = tokio::time::Instant::now() + Duration::from_secs_f64(seconds.max(0.0));
+                let mut report =
+                    puzzlebot_host::fleet_setup::check_report(listed, &link.statuses());
+                while !report.1.is_empty() && tokio::time::Instant::now() < end {
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                    report = puzzlebot_host::fleet_setup::check_report(listed, &link.statuses());
+                }
+                link.shutdown().await;
+                print!("{}", report.0);
+                if !report.1.is_empty() {
+                    anyhow::bail!("fleet not ready: {}", report.1.join("; "));
+                }
+                println!("{}: ready", fleet.path.display());
             }
             FleetCmd::RobotKey { id, fleet } => {
                 println!(
