@@ -62,6 +62,15 @@ pub(super) fn formed_pair() -> (Coordinator, Vec<RobotState>) {
     )
 }
 
+/// Three non-pilots 0.1 m apart along the x axis, all facing +x (robot 1 ahead).
+pub(super) fn line_of_three() -> [RobotState; 3] {
+    [
+        np(1, 0.0, 0.0, 0.0),
+        np(2, -0.1, 0.0, 0.0),
+        np(3, -0.2, 0.0, 0.0),
+    ]
+}
+
 /// `robots` formed into `spec` (every robot on its goal, every pair connected).
 pub(super) fn formed(spec: ShapeSpec, robots: &[RobotState]) -> (Coordinator, Vec<RobotState>) {
     let mut c = coordinator();

@@ -131,8 +131,8 @@ impl Coordinator {
         m
     }
 
-    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the first
-    /// non-pilot from the end that leads in the direction of travel ([`Self::train_leader`]);
+    /// Leader of a segment for assembly motion: of a chain of anchors (a train) the end
+    /// that leads in the direction of travel ([`Self::train_leader`]);
     /// of a rigid assembly the non-pilot heading closest to the members' mean
     /// heading (a robot hanging askew at an anchor would lead the rigid rest sideways);
     /// without non-pilots the lowest id. A member that already leads this motion (its start
@@ -183,11 +183,6 @@ impl Coordinator {
             Mode::Velocity { v, .. } => *v < 0.0,
             _ => false,
         };
-        let fallback = members
-            .iter()
-            .copied()
-            .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
-            .unwrap_or(members[0]);
         // The leading end: nobody ahead of it in the direction of travel (the anchor robot
         // of a pair stands ahead of the opening robot).
         members
@@ -203,8 +198,14 @@ impl Coordinator {
                     }
                 })
             })
-            // A closed loop of anchors has no end.
-            .unwrap_or(fallback)
+            // A closed loop of anchors has no end: its lowest-id non-pilot leads.
+            .unwrap_or_else(|| {
+                members
+                    .iter()
+                    .copied()
+                    .find(|&id| self.kind_of(id) == RobotKind::NonPilot)
+                    .unwrap_or(members[0])
+            })
     }
 
     /// Pose of `member` in `leader`'s body frame: planned when both are in the plan.
@@ -327,12 +328,7 @@ impl Coordinator {
                     RobotKind::NonPilot => HITCH_MAX_TURN,
                 };
                 let w = w.clamp(-max_turn, max_turn);
-                // Down the train goes only the motion the member would have without its own
-                // correction (an ideal trailer behind its neighbour): each correction drives
-                // that member alone, so a tracking error or a pose's noise is not passed on
-                // and amplified from trailer to trailer.
-                let [vf, wf] = drive_point(&pm, own, ff);
-                twist.insert(m, [vf, wf.clamp(-max_turn, max_turn)]);
+                twist.insert(m, [v, w]);
                 out.insert(m, [v, w]);
                 progress = true;
             }
@@ -515,11 +511,7 @@ mod tests {
 
     #[test]
     fn a_train_on_a_trajectory_tows_its_members_as_trailers_and_a_mesh_keeps_its_alignment() {
-        let robots = [
-            np(1, 0.0, 0.0, 0.0),
-            np(2, -0.1, 0.0, 0.0),
-            np(3, -0.2, 0.0, 0.0),
-        ];
+        let robots = line_of_three();
         let (c0, goal) = formed(ShapeSpec::Line, &robots);
         let pose = |id: RobotId| goal.iter().find(|r| r.id == id).unwrap().pose;
         // Robot 1 (the leader) is the line's head: along +x the others are towed.

@@ -29,7 +29,7 @@ pub(super) struct TrainPath {
     /// The leader's reference: (time after the start (s), σ (m)), from the first sample at
     /// or after σ = 0.
     times: Vec<(f64, f64)>,
-    /// Each member's σ at the start: negative behind the leader in the direction of travel.
+    /// Each member's σ at the start: its arc length behind the leader, negative.
     place: BTreeMap<RobotId, f64>,
     /// The leader's reference: origin, target (v, ω), integrated state (x, y, yaw, t).
     start: MotionStart,
@@ -39,54 +39,41 @@ pub(super) struct TrainPath {
 
 impl TrainPath {
     /// The path of a train whose members stand at `chain` (ordered along the chain, either
-    /// way), led by `leader` whose velocity reference starts at `start` and ramps to `to`.
-    /// `None` when the reference does not advance along one direction (turning on the spot,
-    /// or reversing during the ramp): such a motion is not a path.
+    /// way), led by `leader` at one of its ends, whose velocity reference starts at `start`
+    /// and ramps to `to`. `None` when the leader is not an end of the chain (every member
+    /// must follow it), or when the reference does not advance along one direction (turning
+    /// on the spot, or reversing during the ramp): such a motion is not a path.
     pub fn new(
         chain: &[(RobotId, Pose2)],
         leader: RobotId,
         start: MotionStart,
         to: [f64; 2],
     ) -> Option<TrainPath> {
-        let forward = to[0] + start.from[0];
-        if to[0].abs() < 1e-3 || start.from[0] * to[0] < 0.0 || forward == 0.0 {
+        if to[0].abs() < 1e-3 || start.from[0] * to[0] < 0.0 {
             return None;
         }
-        let li = chain.iter().position(|(id, _)| *id == leader)?;
-        // The direction of travel along the chain: the leader's driving direction.
-        let dir = forward.signum();
-        let lp = chain[li].1;
-        let lyaw = lp.yaw;
-        let travel = [dir * lyaw.cos(), dir * lyaw.sin()];
-        // Arc length from the leader along the chain, signed by the direction of travel.
-        let mut place = BTreeMap::from([(leader, 0.0)]);
-        for step in [-1isize, 1] {
-            let mut s = 0.0;
-            let mut prev = lp;
-            let mut sign = 0.0;
-            let mut i = li as isize + step;
-            while i >= 0 && (i as usize) < chain.len() {
-                let (id, p) = chain[i as usize];
-                s += (p.x - prev.x).hypot(p.y - prev.y);
-                prev = p;
-                i += step;
-                // Which side of the leader this end of the chain lies on (from the
-                // leader's neighbour: a bent chain may curl back past the leader's axle).
-                if sign == 0.0 {
-                    let side = (p.x - lp.x) * travel[0] + (p.y - lp.y) * travel[1];
-                    sign = if side < 0.0 { -1.0 } else { 1.0 };
-                }
-                place.insert(id, sign * s);
-            }
+        // From the leader back along the chain: each member's arc length behind it.
+        let mut order: Vec<(RobotId, Pose2)> = chain.to_vec();
+        if order.last().is_some_and(|(id, _)| *id == leader) {
+            order.reverse();
         }
-        let mut behind: Vec<(f64, Pose2)> = chain
-            .iter()
-            .filter_map(|(id, p)| place.get(id).filter(|s| **s < 0.0).map(|s| (*s, *p)))
-            .collect();
-        behind.sort_by(|a, b| a.0.total_cmp(&b.0));
-        behind.push((0.0, start.pose));
+        if order.first().is_none_or(|(id, _)| *id != leader) {
+            return None;
+        }
+        let mut place = BTreeMap::new();
+        let mut samples = Vec::with_capacity(order.len());
+        let mut s = 0.0;
+        for (k, (id, p)) in order.iter().enumerate() {
+            if k > 0 {
+                let q = order[k - 1].1;
+                s -= (p.x - q.x).hypot(p.y - q.y);
+            }
+            place.insert(*id, s);
+            samples.push((s, if k == 0 { start.pose } else { *p }));
+        }
+        samples.reverse();
         Some(TrainPath {
-            samples: behind,
+            samples,
             times: vec![(0.0, 0.0)],
             place,
             start,
@@ -203,18 +190,7 @@ impl TrainPath {
         steps: usize,
     ) -> Option<Vec<Pose2>> {
         let place = *self.place.get(&member)?;
-        let end = t + steps as f64 * dt;
-        self.extend_to(end + PATH_STEP_S);
-        // A member ahead of the leader needs the path that far ahead of the leader's
-        // reference: integrate until it is there (the reference advances at least at the
-        // target speed once the ramp is over).
-        let target = self.sigma_at(end) + place.max(0.0);
-        let mut guard = 0;
-        while self.samples[self.samples.len() - 1].0 < target && guard < 100_000 {
-            let next = self.state[3] + PATH_STEP_S;
-            self.extend_to(next);
-            guard += 1;
-        }
+        self.extend_to(t + steps as f64 * dt + PATH_STEP_S);
         let now = self.sigma_at(t);
         let from = match (self.predecessor(member), ahead) {
             (Some((_, gap)), Some(p)) => {
@@ -351,12 +327,24 @@ mod tests {
     }
 
     #[test]
+    fn a_train_with_a_pilot_turns_no_tighter_than_the_pilot_can() {
+        let mut robots = line_of_three();
+        robots[2].kind = RobotKind::Pilot;
+        let (c, _) = formed(ShapeSpec::Line, &robots);
+        let members = [1, 2, 3];
+        let widest = 0.05 / c.cfg.pilot_turn_radius;
+        assert!(widest < 0.3, "the pilot's limit binds: {widest}");
+        assert_eq!(c.feasible_twist(&members, [0.05, 0.3]), [0.05, widest]);
+        assert_eq!(c.feasible_twist(&members, [0.05, -0.3]), [0.05, -widest]);
+        assert_eq!(c.feasible_twist(&members, [0.05, 0.01]), [0.05, 0.01]);
+        // Without a pilot the requested turn stands.
+        let (c, _) = formed(ShapeSpec::Line, &line_of_three());
+        assert_eq!(c.feasible_twist(&members, [0.05, 0.3]), [0.05, 0.3]);
+    }
+
+    #[test]
     fn a_train_in_a_velocity_behaviour_follows_its_leaders_path() {
-        let robots = [
-            np(1, 0.0, 0.0, 0.0),
-            np(2, -0.1, 0.0, 0.0),
-            np(3, -0.2, 0.0, 0.0),
-        ];
+        let robots = line_of_three();
         let (mut c, goal) = formed(ShapeSpec::Line, &robots);
         let start = |id: RobotId| goal.iter().find(|r| r.id == id).unwrap().pose;
         let (v, w) = (0.05, 0.3);
