@@ -49,7 +49,7 @@ pub struct Bridge {
 impl Bridge {
     /// Average armature drive: (voltage factor a/V, damping factor g) such that the
     /// armature sees `a·V − g·e` with back-EMF e.
-    fn drive(self) -> (f64, f64) {
+    pub fn drive(self) -> (f64, f64) {
         let d1 = f64::from(self.in1.min(1000)) * 1e-3;
         let d2 = f64::from(self.in2.min(1000)) * 1e-3;
         if d1 == 0.0 && d2 == 0.0 {

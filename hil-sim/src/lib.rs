@@ -7,6 +7,7 @@
 //! * [`mechanics`]: contacts and anchor / knob couplings (position-based model; the module
 //!   says why no physics engine).
 //! * [`radio`], [`mocap`]: impaired virtual radio, noisy 100 Hz motion capture.
+//! * [`physics3d`]: the 3-D crossing world (rapier3d): formed assemblies over gaps and steps.
 //! * [`world`]: the lockstep [`World`] (no sockets, deterministic from the seed).
 //! * [`fleet`]: [`SimFleet`], the world in its own thread with one UDP socket per robot on
 //!   127.0.0.1 and the pose stream, for the host and end-to-end tests.
@@ -41,6 +42,7 @@ pub mod fleet;
 pub mod math;
 pub mod mechanics;
 pub mod mocap;
+pub mod physics3d;
 pub mod radio;
 pub mod rng;
 pub mod scenario;

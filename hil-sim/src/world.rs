@@ -44,7 +44,7 @@ pub const MOCAP_BACKLOG: usize = 256;
 
 /// Boot nonces from the robot's own seeded stream (the ESP32-C3 uses its hardware RNG).
 #[derive(Debug, Clone)]
-pub struct SimNonces(Rng);
+pub struct SimNonces(pub(crate) Rng);
 
 impl NonceSource for SimNonces {
     fn fresh_nonce(&mut self) -> Nonce {
