@@ -44,6 +44,9 @@ pub struct Config3d {
     /// Tilt of gravity about the world y axis (rad): the whole terrain as a slope falling
     /// towards +x at this angle (0: level).
     pub slope: f64,
+    /// A connector opens when its wrench stays over its limits this long (s): the printed TPU
+    /// parts ride out the milliseconds of an impact. Not in THESIS; 10 ms.
+    pub break_after: f64,
 }
 
 impl Default for Config3d {
@@ -63,6 +66,7 @@ impl Default for Config3d {
             catch_depth: 0.2,
             fall_depth: 0.01,
             slope: 0.0,
+            break_after: 0.01,
         }
     }
 }
@@ -89,6 +93,7 @@ impl Config3d {
             ("knob_play", self.knob_play),
             ("anchor_damping", self.anchor_damping),
             ("wheel_rest_speed", self.wheel_rest_speed),
+            ("break_after", self.break_after),
         ];
         for (n, v) in nonneg {
             if !(v.is_finite() && v >= 0.0) {

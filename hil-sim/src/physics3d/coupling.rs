@@ -8,8 +8,8 @@
 //!   a tilt about the shared face up to the angle at which the hooks catch
 //!   ([`Config3d::knob_tilt_limit`]).
 //!
-//! A coupling breaks when a component of its wrench exceeds the connector's limits
-//! ([`Strength`], DESIGN §8, as the stability gate models them).
+//! A coupling breaks when a component of its wrench stays over the connector's limits
+//! ([`Strength`], DESIGN §8, as the stability gate models them) for `Config3d::break_after`.
 
 use super::config::{Config3d, Strength};
 use crate::math::Pose;
@@ -35,6 +35,8 @@ pub struct Joint3d {
     pub peak_force: f64,
     /// Largest moment component seen so far (N·m), the anchor's free yaw excluded.
     pub peak_moment: f64,
+    /// How long the wrench has been over the limits without a break (s).
+    pub over_for: f64,
 }
 
 /// The joint for an anchor of `pa` (robot a, params `p`) in the opening of `pb`.
@@ -88,8 +90,10 @@ pub fn knob_joint(p: &RobotParams, cfg: &Config3d, a: Pose, b: Pose) -> GenericJ
 
 impl Joint3d {
     /// Update the peaks from the joint's impulses of the last substep (the engine stores the
-    /// last of its `substeps` substeps of a step of `dt`); true when it must break.
-    pub fn load(&mut self, j: &ImpulseJoint, dt: f64, substeps: usize) -> bool {
+    /// last of its `substeps` substeps of a step of `dt`); true when it must break: the wrench
+    /// has been over the limits for `hold_time` s without a pause (the TPU parts ride out an
+    /// impact of a few milliseconds).
+    pub fn load(&mut self, j: &ImpulseJoint, dt: f64, substeps: usize, hold_time: f64) -> bool {
         let im = j.impulses * substeps as f64;
         let force = [im[0] / dt, im[1] / dt, im[2] / dt];
         let mut moment = [im[3] / dt, im[4] / dt, im[5] / dt];
@@ -100,6 +104,11 @@ impl Joint3d {
         let mmax = moment.iter().fold(0.0f64, |m, f| m.max(f.abs()));
         self.peak_force = self.peak_force.max(fmax);
         self.peak_moment = self.peak_moment.max(mmax);
-        self.strength.exceeded(force, moment)
+        if self.strength.exceeded(force, moment) {
+            self.over_for += dt;
+        } else {
+            self.over_for = 0.0;
+        }
+        self.over_for >= hold_time
     }
 }

@@ -205,6 +205,7 @@ impl World3d {
                 strength,
                 peak_force: 0.0,
                 peak_moment: 0.0,
+                over_for: 0.0,
             });
         }
         Ok(World3d {
@@ -339,7 +340,7 @@ impl World3d {
             let Some(j) = self.joints.get(h) else {
                 continue;
             };
-            if c.load(j, dt, self.cfg.solver_iterations) {
+            if c.load(j, dt, self.cfg.solver_iterations, self.cfg.break_after) {
                 self.joints.remove(h, true);
                 c.handle = None;
                 self.events.push(Event3d::Broke {
