@@ -2,6 +2,7 @@
 //! (DESIGN §9: ≥ 10×): a 2 × 4 mesh with two pilots driving over a 40 mm gap.
 //!
 //! `cargo run --release -p puzzlebot-sim --example physics3d_speed [simulated seconds]`
+//! (`P3D_DT` and `P3D_IT` override the step in s and the solver iterations.)
 
 use puzzlebot_params::terrain::{Platform, Terrain};
 use puzzlebot_params::FleetParams;
@@ -21,7 +22,7 @@ fn main() {
     let terrain = Terrain {
         platforms: vec![
             Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.006),
-            Platform::rect("far", [0.04, -0.5], [1.04, 0.5], 0.0),
+            Platform::rect("far", [0.04, -0.5], [4.04, 0.5], 0.0),
         ],
     };
     let f = Formation {
@@ -33,7 +34,14 @@ fn main() {
         front: [-0.03, -0.025, 0.0],
     };
     let s = assembly::scenario(&f, terrain, FleetParams::default(), 1);
-    let mut w = match World3d::new(&s, Config3d::default()) {
+    let mut cfg = Config3d::default();
+    if let Some(v) = std::env::var("P3D_DT").ok().and_then(|v| v.parse().ok()) {
+        cfg.dt = v;
+    }
+    if let Some(v) = std::env::var("P3D_IT").ok().and_then(|v| v.parse().ok()) {
+        cfg.solver_iterations = v;
+    }
+    let mut w = match World3d::new(&s, cfg) {
         Ok(w) => w,
         Err(e) => {
             eprintln!("physics3d_speed: {e}");
@@ -49,7 +57,7 @@ fn main() {
         "8 robots, {secs} s simulated in {wall:.3} s wall: {:.1}x real time \
          (step {} ms; front robot at x = {:.3} m, {} events)",
         secs / wall,
-        Config3d::default().dt * 1e3,
+        cfg.dt * 1e3,
         front[0],
         w.events().len()
     );

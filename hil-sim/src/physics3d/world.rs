@@ -5,7 +5,7 @@
 
 use super::body::{self, RobotBodies};
 use super::config::{Config3d, Strength};
-use super::coupling::{anchor_joint, knob_joint, Joint3d};
+use super::coupling::{self, Joint3d};
 use super::motor::SideMotor;
 use super::onboard::Onboard;
 use super::terrain;
@@ -187,21 +187,22 @@ impl World3d {
             };
             let (a, b) = (find(c.a)?, find(c.b)?);
             let pa = &poses[a].1;
-            let (data, strength) = match c.kind {
-                LinkKind::Anchor => (anchor_joint(pa, &cfg), Strength::anchor(pa)),
+            let (geom, strength) = match c.kind {
+                LinkKind::Anchor => (coupling::anchor(pa, &cfg), Strength::anchor(pa)),
                 LinkKind::Knob => (
-                    knob_joint(pa, &cfg, poses[a].0, poses[b].0),
+                    coupling::knob(pa, &cfg, poses[a].0, poses[b].0),
                     Strength::knob(pa),
                 ),
             };
             // Body 1 carries the opening / hole, body 2 the anchor / knob.
             let (ca, cb) = (robots[a].bodies.chassis, robots[b].bodies.chassis);
-            let handle = joints.insert(cb, ca, data, true);
+            let handle = joints.insert(cb, ca, geom.joint(), true);
             couplings.push(Joint3d {
                 kind: c.kind,
                 a,
                 b,
                 handle: Some(handle),
+                geom,
                 strength,
                 peak_force: 0.0,
                 peak_moment: 0.0,
@@ -298,9 +299,22 @@ impl World3d {
             r.soc = (r.soc - i_total * dt * b.inv_capacity).max(0.0);
             r.battery_v = (b.open_circuit(r.soc) - i_total * b.resistance).max(0.0);
         }
+        // Coupling springs engage outside their free ranges.
+        for c in &self.couplings {
+            let Some(h) = c.handle else { continue };
+            let q = self.coupling_coords(c);
+            if let Some(j) = self.joints.get_mut(h, false) {
+                c.geom.drive(&mut j.data, &q);
+            }
+        }
         // 2. Physics.
         let (sn, cs) = self.cfg.slope.sin_cos();
-        let gravity = vector![G * sn, 0.0, -G * cs];
+        let ramp = if self.cfg.settle_time > 0.0 {
+            (t1 as f64 * 1e-6 / self.cfg.settle_time).min(1.0)
+        } else {
+            1.0
+        };
+        let gravity = vector![G * sn, 0.0, -G * cs] * ramp;
         self.pipeline.step(
             &gravity,
             &self.params,
@@ -335,12 +349,12 @@ impl World3d {
             }
         }
         // 4. Connector strength.
-        for c in &mut self.couplings {
+        for k in 0..self.couplings.len() {
+            let c = &self.couplings[k];
             let Some(h) = c.handle else { continue };
-            let Some(j) = self.joints.get(h) else {
-                continue;
-            };
-            if c.load(j, dt, self.cfg.solver_iterations, self.cfg.break_after) {
+            let q = self.coupling_coords(c);
+            let c = &mut self.couplings[k];
+            if c.load(&q, dt, self.cfg.break_after) {
                 self.joints.remove(h, true);
                 c.handle = None;
                 self.events.push(Event3d::Broke {
@@ -448,6 +462,21 @@ impl World3d {
         let b = self.bodies.get(*self.blocks.get(i)?)?;
         let t = b.translation();
         Some([t.x, t.y, t.z])
+    }
+
+    /// Wrench each coupling carries now: force (N) and moment (N·m) in the frame of the robot
+    /// with the opening / hole; `None` once broken. Scenario order.
+    pub fn coupling_loads(&self) -> Vec<Option<([f64; 3], [f64; 3])>> {
+        self.couplings
+            .iter()
+            .map(|c| c.handle.map(|_| c.geom.wrench(&self.coupling_coords(c))))
+            .collect()
+    }
+
+    fn coupling_coords(&self, c: &Joint3d) -> [f64; 6] {
+        let b1 = self.bodies[self.robots[c.b].bodies.chassis].position();
+        let b2 = self.bodies[self.robots[c.a].bodies.chassis].position();
+        c.geom.coords(b1, b2)
     }
 
     /// Pin robot `id` to the world (a fixed body), e.g. the root of a cantilever.
