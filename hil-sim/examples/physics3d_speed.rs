@@ -61,4 +61,7 @@ fn main() {
         front[0],
         w.events().len()
     );
+    for e in w.events() {
+        println!("  {e:?}");
+    }
 }
