@@ -18,12 +18,8 @@ use common::{key, speed, MiniHost};
 use puzzlebot_sim::{Scenario, World};
 use std::time::{Duration, Instant};
 
-/// CPU time this thread has run (ns), from /proc/thread-self/schedstat (Linux); the
-/// machine may be shared, so CPU time is what "on one core" means.
-fn thread_cpu_ns() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    s.split_whitespace().next()?.parse().ok()
-}
+mod cpu_clock;
+use cpu_clock::thread_cpu_ns;
 
 fn main() {
     let args: Vec<String> = std::env::args()
