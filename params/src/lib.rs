@@ -15,6 +15,8 @@ pub mod angle;
 pub mod coupling;
 pub mod drive;
 pub mod firmware;
+#[cfg(feature = "std")]
+pub mod formation;
 pub mod geometry;
 #[cfg(feature = "std")]
 pub mod load;

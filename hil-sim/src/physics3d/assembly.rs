@@ -5,22 +5,11 @@
 use crate::mechanics::LinkKind;
 use crate::rng::Rng;
 use crate::scenario::{CouplingSpec, RobotSpec, Scenario};
+use puzzlebot_params::formation::{self, Link};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 
-/// Shape of a formed assembly.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Shape {
-    /// One row of `n` robots on soft anchors.
-    Line(usize),
-    /// `rows` rows of `per_row` robots, each row offset by half a body from the previous.
-    Mesh {
-        /// Rows.
-        rows: usize,
-        /// Robots per row.
-        per_row: usize,
-    },
-}
+pub use puzzlebot_params::formation::Shape;
 
 /// Where the assembly starts and which robots are pilots.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,42 +25,20 @@ pub struct Formation {
 /// A coupling of a layout: kind, robot with the anchor / knob, robot with the opening / hole.
 pub type LayoutLink = (LinkKind, usize, usize);
 
-/// Body-centre offsets (forward, left) of every robot, row-major with the front robot of each
-/// row first, and the couplings (indices) that hold them: anchors within a row (the robot in
-/// front carries the anchor), knobs between rows (the right-hand robot carries the knob).
-pub fn layout(shape: Shape, p: &FleetParams) -> (Vec<[f64; 2]>, Vec<LayoutLink>) {
-    let g = &p.non_pilot.geometry;
-    let seat =
-        f64::from(g.anchor_opening[0]) - puzzlebot_params::coupling::Coupling::anchor_depth(g);
-    let pitch = seat - f64::from(g.anchor_head[0]);
-    let width = f64::from(g.width);
-    let (rows, per_row) = match shape {
-        Shape::Line(n) => (1, n),
-        Shape::Mesh { rows, per_row } => (rows, per_row),
-    };
-    let mut at = Vec::with_capacity(rows * per_row);
-    let mut links = Vec::new();
-    for r in 0..rows {
-        // Odd rows sit half a body forward (THESIS 5.2.2), each row to the left of the last.
-        let shift = if r % 2 == 1 { 0.5 * pitch } else { 0.0 };
-        for i in 0..per_row {
-            at.push([shift - pitch * i as f64, width * r as f64]);
-            let k = r * per_row + i;
-            if i > 0 {
-                links.push((LinkKind::Anchor, k - 1, k));
-            }
-        }
-    }
-    for r in 1..rows {
-        for i in 0..per_row {
-            for j in 0..per_row {
-                let (a, b) = ((r - 1) * per_row + i, r * per_row + j);
-                if (at[a][0] - at[b][0]).abs() < 0.75 * pitch {
-                    links.push((LinkKind::Knob, a, b));
-                }
-            }
-        }
-    }
+/// Body-centre offsets (forward, left; m) and couplings of `shape`
+/// ([`puzzlebot_params::formation::layout`]) with the simulator's coupling kinds.
+pub fn layout(shape: Shape, p: &FleetParams) -> (formation::Offsets, Vec<LayoutLink>) {
+    let (at, links) = formation::layout(shape, &p.non_pilot.geometry);
+    let links = links
+        .into_iter()
+        .map(|(l, a, b)| {
+            let kind = match l {
+                Link::Anchor => LinkKind::Anchor,
+                Link::Knob => LinkKind::Knob,
+            };
+            (kind, a, b)
+        })
+        .collect();
     (at, links)
 }
 
