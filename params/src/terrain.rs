@@ -104,6 +104,36 @@ impl Terrain {
         }
         Ok(())
     }
+
+    /// [`Terrain::validate`], and solid platforms as the 3-D world and the crossing planner
+    /// need them: convex counter-clockwise polygons with positive area that do not overlap.
+    /// Errors name the platform index and field.
+    pub fn validate_solid(&self) -> Result<(), String> {
+        self.validate()?;
+        let t = self;
+        for (i, p) in t.platforms.iter().enumerate() {
+            let area = signed_area(&p.polygon);
+            if area <= 1e-12 {
+                return Err(format!(
+                    "platforms[{i}].polygon: needs a positive area, counter-clockwise (area {area:.3e} m²)"
+                ));
+            }
+            if !is_convex(&p.polygon) {
+                return Err(format!("platforms[{i}].polygon: must be convex"));
+            }
+        }
+        for i in 0..t.platforms.len() {
+            for j in i + 1..t.platforms.len() {
+                if overlap(&t.platforms[i].polygon, &t.platforms[j].polygon) {
+                    return Err(format!(
+                        "platforms[{j}].polygon: overlaps platforms[{i}] ({:?} and {:?})",
+                        t.platforms[j].name, t.platforms[i].name
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Even-odd point-in-polygon test; points on an edge count as inside.
@@ -137,6 +167,49 @@ pub fn point_in_polygon(poly: &[[f64; 2]], p: [f64; 2]) -> bool {
     inside
 }
 
+fn signed_area(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum::<f64>()
+        * 0.5
+}
+
+fn is_convex(poly: &[[f64; 2]]) -> bool {
+    let n = poly.len();
+    (0..n).all(|i| {
+        let (a, b, c) = (poly[i], poly[(i + 1) % n], poly[(i + 2) % n]);
+        (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]) >= -1e-12
+    })
+}
+
+/// Interiors intersect (separating-axis test; touching edges do not count).
+fn overlap(p: &[[f64; 2]], q: &[[f64; 2]]) -> bool {
+    for poly in [p, q] {
+        let n = poly.len();
+        for i in 0..n {
+            let (a, b) = (poly[i], poly[(i + 1) % n]);
+            let axis = [b[1] - a[1], a[0] - b[0]];
+            let proj = |s: &[[f64; 2]]| {
+                s.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
+                    let d = v[0] * axis[0] + v[1] * axis[1];
+                    (lo.min(d), hi.max(d))
+                })
+            };
+            let (p0, p1) = proj(p);
+            let (q0, q1) = proj(q);
+            let tol = 1e-9 * (axis[0].abs() + axis[1].abs());
+            if p1 <= q0 + tol || q1 <= p0 + tol {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,5 +222,29 @@ mod tests {
         assert_eq!(t.support_at([0.05, 0.0]).map(|s| s.0), Some(0.1));
         assert!(Terrain::flat().support_at([5.0, 5.0]).is_some());
         assert!(t.validate().is_ok());
+    }
+
+    #[test]
+    fn bad_platforms_are_named() {
+        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
+        assert!(t.validate_solid().is_ok());
+        t.platforms[1].polygon[0][0] = -0.1; // far platform now reaches over the near one
+        let e = t.validate_solid().unwrap_err();
+        assert!(e.starts_with("platforms[1].polygon"), "{e}");
+        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
+        t.platforms[0].polygon.reverse();
+        assert!(t
+            .validate_solid()
+            .unwrap_err()
+            .contains("counter-clockwise"));
+        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
+        t.platforms[0].height = f64::NAN;
+        assert!(t
+            .validate_solid()
+            .unwrap_err()
+            .starts_with("platforms[0].height"));
+        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
+        t.platforms[0].polygon = vec![[0.0, 0.0], [1.0, 0.0], [0.2, 0.2], [0.0, 1.0]];
+        assert!(t.validate_solid().unwrap_err().contains("convex"));
     }
 }

@@ -1,6 +1,7 @@
 //! Platforms of [`Terrain`] as fixed colliders: each platform a prism from the catch floor up
 //! to its height; a gap is where no platform is, with a catch floor `catch_depth` below the
-//! lowest platform so that a fallen robot comes to rest.
+//! lowest platform so that a fallen robot comes to rest. Terrains must pass
+//! [`Terrain::validate_solid`].
 
 use puzzlebot_params::terrain::{Platform, Terrain};
 use rapier3d_f64::prelude::*;
@@ -12,78 +13,6 @@ pub const ROBOT_GROUP: Group = Group::GROUP_2;
 
 /// Half size of the catch floor and of the floor of a terrain without platforms (m).
 const FLOOR_HALF: f64 = 50.0;
-
-/// Check what the 3-D world needs beyond [`Terrain::validate`]: convex counter-clockwise
-/// polygons with positive area, and platforms that do not overlap. Errors name the
-/// platform index and field.
-pub fn validate(t: &Terrain) -> Result<(), String> {
-    t.validate()?;
-    for (i, p) in t.platforms.iter().enumerate() {
-        let area = signed_area(&p.polygon);
-        if area <= 1e-12 {
-            return Err(format!(
-                "platforms[{i}].polygon: needs a positive area, counter-clockwise (area {area:.3e} m²)"
-            ));
-        }
-        if !is_convex(&p.polygon) {
-            return Err(format!("platforms[{i}].polygon: must be convex"));
-        }
-    }
-    for i in 0..t.platforms.len() {
-        for j in i + 1..t.platforms.len() {
-            if overlap(&t.platforms[i].polygon, &t.platforms[j].polygon) {
-                return Err(format!(
-                    "platforms[{j}].polygon: overlaps platforms[{i}] ({:?} and {:?})",
-                    t.platforms[j].name, t.platforms[i].name
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
-fn signed_area(poly: &[[f64; 2]]) -> f64 {
-    let n = poly.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (poly[i], poly[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum::<f64>()
-        * 0.5
-}
-
-fn is_convex(poly: &[[f64; 2]]) -> bool {
-    let n = poly.len();
-    (0..n).all(|i| {
-        let (a, b, c) = (poly[i], poly[(i + 1) % n], poly[(i + 2) % n]);
-        (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]) >= -1e-12
-    })
-}
-
-/// Interiors intersect (separating-axis test; touching edges do not count).
-fn overlap(p: &[[f64; 2]], q: &[[f64; 2]]) -> bool {
-    for poly in [p, q] {
-        let n = poly.len();
-        for i in 0..n {
-            let (a, b) = (poly[i], poly[(i + 1) % n]);
-            let axis = [b[1] - a[1], a[0] - b[0]];
-            let proj = |s: &[[f64; 2]]| {
-                s.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
-                    let d = v[0] * axis[0] + v[1] * axis[1];
-                    (lo.min(d), hi.max(d))
-                })
-            };
-            let (p0, p1) = proj(p);
-            let (q0, q1) = proj(q);
-            let tol = 1e-9 * (axis[0].abs() + axis[1].abs());
-            if p1 <= q0 + tol || q1 <= p0 + tol {
-                return false;
-            }
-        }
-    }
-    true
-}
 
 /// Height of the catch floor under `t` (m).
 pub fn catch_floor(t: &Terrain, catch_depth: f64) -> f64 {
@@ -157,27 +86,4 @@ fn axis_aligned_rect(poly: &[[f64; 2]]) -> Option<([f64; 2], [f64; 2])> {
     let corner =
         |v: &[f64; 2]| (v[0] == min[0] || v[0] == max[0]) && (v[1] == min[1] || v[1] == max[1]);
     poly.iter().all(corner).then_some((min, max))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn bad_platforms_are_named() {
-        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
-        assert!(validate(&t).is_ok());
-        t.platforms[1].polygon[0][0] = -0.1; // far platform now reaches over the near one
-        let e = validate(&t).unwrap_err();
-        assert!(e.starts_with("platforms[1].polygon"), "{e}");
-        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
-        t.platforms[0].polygon.reverse();
-        assert!(validate(&t).unwrap_err().contains("counter-clockwise"));
-        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
-        t.platforms[0].height = f64::NAN;
-        assert!(validate(&t).unwrap_err().starts_with("platforms[0].height"));
-        let mut t = Terrain::gap(0.0, 0.04, 0.5, 0.5, 0.0);
-        t.platforms[0].polygon = vec![[0.0, 0.0], [1.0, 0.0], [0.2, 0.2], [0.0, 1.0]];
-        assert!(validate(&t).unwrap_err().contains("convex"));
-    }
 }

@@ -136,7 +136,10 @@ impl World3d {
         scenario
             .validate()
             .map_err(|e| inv(format!("scenario: {e}")))?;
-        terrain::validate(&scenario.terrain).map_err(|e| inv(format!("terrain: {e}")))?;
+        scenario
+            .terrain
+            .validate_solid()
+            .map_err(|e| inv(format!("terrain: {e}")))?;
         cfg.validate().map_err(inv)?;
         let mut params = IntegrationParameters {
             length_unit: LENGTH_UNIT,
