@@ -10,6 +10,7 @@ pub mod config;
 pub mod control;
 pub mod drive;
 pub mod experiment;
+pub mod fleet_provision;
 pub mod fleet_setup;
 pub mod link;
 pub mod lockstep;

@@ -77,6 +77,29 @@ enum FleetCmd {
         #[arg(long, default_value_t = 3.0)]
         seconds: f64,
     },
+    /// Write robot ID's provisioning record (id, kind, key, Wi-Fi, host address) as a blob
+    /// for `espflash write-bin` (firmware/README.md). The Wi-Fi password comes from
+    /// --password-file or PUZZLEBOT_WIFI_PASSWORD (none: an open network).
+    Provision {
+        /// Robot id (listed in the fleet config).
+        #[arg(long)]
+        id: u16,
+        /// Wi-Fi network name.
+        #[arg(long)]
+        ssid: String,
+        /// File whose first line is the Wi-Fi password.
+        #[arg(long)]
+        password_file: Option<PathBuf>,
+        /// Host address the robot sends to, a.b.c.d[:port]; default: the config's link.bind.
+        #[arg(long)]
+        host: Option<String>,
+        /// Output file (owner-only; it holds the robot key); default robot-ID.bin.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
+    },
     /// Print the key robot ID is provisioned with (64 hex characters; see firmware/README.md).
     RobotKey {
         /// Robot id.
@@ -528,6 +551,32 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     anyhow::bail!("fleet not ready: {}", report.1.join("; "));
                 }
                 println!("{}: ready", fleet.path.display());
+            }
+            FleetCmd::Provision {
+                id,
+                ssid,
+                password_file,
+                host,
+                out,
+                fleet,
+            } => {
+                use puzzlebot_host::fleet_provision as prov;
+                let req = prov::Request {
+                    id,
+                    ssid,
+                    password: prov::read_password(password_file.as_deref())?,
+                    host,
+                };
+                let blob = prov::record(&fleet, &req, None)?;
+                let out = out.unwrap_or_else(|| PathBuf::from(format!("robot-{id}.bin")));
+                prov::write_blob(&out, &blob)?;
+                println!(
+                    "wrote {} ({} bytes, owner-only); flash it with:\n  espflash write-bin {:#x} {}",
+                    out.display(),
+                    blob.len(),
+                    prov::PARTITION_OFFSET,
+                    out.display()
+                );
             }
             FleetCmd::RobotKey { id, fleet } => {
                 println!(

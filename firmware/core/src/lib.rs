@@ -53,6 +53,7 @@ pub mod encoder;
 pub mod estimator;
 pub mod model;
 pub mod pi;
+pub mod provision;
 pub mod robot;
 pub mod safety;
 
@@ -60,6 +61,7 @@ pub use drv8833::{Decay, HBridge, MotorCommand, MotorOutputs, PWM_FULL_SCALE};
 pub use encoder::{levels_of, Edge, Encoder, EncoderSnapshot, Step, EDGE_HISTORY};
 pub use estimator::SpeedEstimator;
 pub use pi::{GainSchedule, WheelController};
+pub use provision::{Credentials, Provision, RecordError, RECORD_LEN};
 pub use robot::{
     check_config, ConfigError, DriveMode, LinkStats, NonceSource, Robot, Sensors, Status,
 };

@@ -8,9 +8,10 @@ use esp_hal::gpio::{AnyPin, Level, Output, OutputConfig};
 /// Why the robot will not drive, as the number of flashes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BlinkCode {
-    /// 1: no provisioning variables in this build.
+    /// 1: no provisioning record (erased `robot` partition, no build variables).
     Unprovisioned = 1,
-    /// 2: a provisioning variable is set but invalid (key, id or host address).
+    /// 2: a provisioning record or build variable is there but unusable (corrupted,
+    /// truncated, unknown format, invalid field).
     BadProvisioning = 2,
     /// 3: SSID or password too long for the Wi-Fi driver.
     WifiCredentials = 3,

@@ -25,6 +25,7 @@ use embassy_net::udp::{PacketMetadata, UdpSocket};
 use embassy_net::{IpEndpoint, Runner, Stack, StackResources};
 use embassy_time::{Duration, Ticker, Timer};
 use esp_backtrace as _;
+use esp_bootloader_esp_idf::partitions::FlashStorage;
 use esp_hal::gpio::{Io, Output};
 use esp_hal::rng::Rng;
 use esp_hal::timer::timg::TimerGroup;
@@ -34,9 +35,11 @@ use esp_radio::wifi::{
 };
 use fault::FaultPins;
 use led::BlinkCode;
-use puzzlebot_firmware_core::{NonceSource, Robot, SafeOutputs, Sensors, TickSupervisor};
+use puzzlebot_firmware_core::{
+    NonceSource, Provision, Robot, SafeOutputs, Sensors, TickSupervisor,
+};
 use puzzlebot_params::firmware::Firmware;
-use puzzlebot_protocol::{FirmwareVersion, Nonce, DEFAULT_ROBOT_PORT, MAX_DATAGRAM};
+use puzzlebot_protocol::{FirmwareVersion, Nonce, RobotKind, DEFAULT_ROBOT_PORT, MAX_DATAGRAM};
 use static_cell::StaticCell;
 
 esp_bootloader_esp_idf::esp_app_desc!();
@@ -111,27 +114,28 @@ async fn main(spawner: Spawner) -> ! {
     };
     let battery = battery::Battery::new(peripherals.ADC1, board.battery);
     let rng = Rng::new();
-    let kind = provision::kind();
+    let mut flash = FlashStorage::new(peripherals.FLASH);
 
     // `black_box`: keep the Wi-Fi path in unprovisioned (CI) builds too, so CI links and
     // measures the same image a provisioned robot runs.
-    let prov = core::hint::black_box(provision::from_build_env());
-    let (id, key, net) = match prov {
+    let prov = core::hint::black_box(provision::load(&mut flash));
+    let (id, kind, key, net) = match prov {
         Err(why) => {
-            let code = match why {
-                provision::ProvisionError::Missing(_) => BlinkCode::Unprovisioned,
-                provision::ProvisionError::Invalid(_) => BlinkCode::BadProvisioning,
+            let code = if why.is_bad() {
+                BlinkCode::BadProvisioning
+            } else {
+                BlinkCode::Unprovisioned
             };
             log::warn!("not provisioned ({why}): the robot will never drive");
             blink(&spawner, &mut led, code);
-            (provision::UNPROVISIONED_ID, None, None)
+            (provision::UNPROVISIONED_ID, RobotKind::NonPilot, None, None)
         }
         Ok(p) => match start_wifi(&spawner, peripherals.WIFI, &p, rng) {
-            Ok(net) => (p.id, Some(p.key), Some(net)),
+            Ok(net) => (p.id, p.kind, Some(p.key), Some(net)),
             Err(code) => {
                 // The reason is logged where it happened; the robot stays silent, coasting.
                 blink(&spawner, &mut led, code);
-                (p.id, Some(p.key), None)
+                (p.id, p.kind, Some(p.key), None)
             }
         },
     };
@@ -182,25 +186,25 @@ fn blink(spawner: &Spawner, led: &mut Option<Output<'static>>, code: BlinkCode) 
 fn start_wifi(
     spawner: &Spawner,
     wifi: esp_hal::peripherals::WIFI<'static>,
-    p: &provision::Provision,
+    p: &Provision,
     rng: Rng,
 ) -> Result<Net, BlinkCode> {
-    let auth = if p.password.is_empty() {
+    let auth = if p.password().is_empty() {
         AuthenticationMethodConfig::Open
     } else {
-        let pw = p.password.try_into().map_err(|_| {
+        let pw = p.password().try_into().map_err(|_| {
             log::error!(
                 "Wi-Fi not started: password of {} bytes is too long",
-                p.password.len()
+                p.password().len()
             );
             BlinkCode::WifiCredentials
         })?;
         AuthenticationMethodConfig::WpaWpa2Personal(pw)
     };
-    let ssid = p.ssid.try_into().map_err(|_| {
+    let ssid = p.ssid().try_into().map_err(|_| {
         log::error!(
             "Wi-Fi not started: SSID of {} bytes is too long",
-            p.ssid.len()
+            p.ssid().len()
         );
         BlinkCode::WifiCredentials
     })?;
