@@ -11,12 +11,14 @@
 //!   determinate-tree fast path;
 //! - [`range`]: admissible external load at a point by bisection (SOCP 4.1);
 //! - [`puzzlebot`]: PuzzleBot adapter and `max_safe_advance`;
+//! - [`crossing`]: which shape, pilot places and heading cross a gap, ranked by the gate;
 //! - [`io`]: files, reports and [`io::gate_command`] (the CLI entry point); [`picture`]: SVG.
 #![deny(unsafe_code)] // one exception: the thread CPU clock of the benchmarks
 #![warn(missing_docs)]
 
 pub mod bench_problems;
 pub mod blockchol;
+pub mod crossing;
 pub mod dual;
 pub mod gate;
 pub mod io;

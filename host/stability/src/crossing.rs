@@ -1,0 +1,552 @@
+//! Crossing planner: which formed shape, pilot places and heading carry `n` robots across the
+//! gap ahead, ranked by the gate's margin (THESIS 5.2.4: heading θ against the diagonal angle
+//! α; SPHERE's terrain-driven choice of configuration).
+//!
+//! Every candidate (each shape of [`Shape::candidates`], each distinct set of pilot places,
+//! each heading) starts with its foremost body corner `clearance` behind the start platform's
+//! far edge, its front robot on the line y = `start_y`, and drives along its heading. It
+//! needs to advance `required` metres until every robot's centre stands on another platform;
+//! the gate ([`max_safe_advance_with`]) says how far it may advance proven stable. The margin
+//! is the gate's distance less the required one: ≥ 0 crosses. Candidates that cross are
+//! ranked by the smallest internal stability margin (SOCP (42)) the gate finds at samples
+//! along the crossing, those that do not by how far short they stop.
+
+use crate::gate::evaluate;
+use crate::puzzlebot::{
+    assembly_level, build_model, max_safe_advance_with, AdapterError, Advance, AdvanceOptions,
+    LimitedBy, Pair, PairKind, PuzzleAssembly, RobotPose,
+};
+use puzzlebot_params::formation::{self, Link, Shape};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use serde::Serialize;
+
+/// Planner settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrossingOptions {
+    /// Headings to try (rad), measured from the +x crossing direction.
+    pub headings: Vec<f64>,
+    /// y of the front robot's start (m).
+    pub start_y: f64,
+    /// Gap between the foremost body corner and the start platform's edge at the start (m).
+    pub clearance: f64,
+    /// Scan step of the gate along the advance (m).
+    pub step: f64,
+}
+
+impl Default for CrossingOptions {
+    fn default() -> Self {
+        CrossingOptions {
+            // THESIS 5.2.4: 0–50° in steps of 10°.
+            headings: (0..6).map(|k| f64::from(k * 10).to_radians()).collect(),
+            start_y: 0.0,
+            clearance: 0.005,
+            step: 0.005,
+        }
+    }
+}
+
+/// Where the pilots sit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PilotPlace {
+    /// No pilots.
+    None,
+    /// At the front of the rows.
+    Front,
+    /// At the back of the rows.
+    Back,
+    /// Front and back of the rows, alternately.
+    FrontBack,
+}
+
+/// One evaluated candidate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Candidate {
+    /// Shape name (`line 4`, `mesh 2x2`).
+    pub shape: String,
+    /// Pilot places.
+    pub pilots: PilotPlace,
+    /// Pilot robot indices (row-major, front first).
+    pub pilot_robots: Vec<usize>,
+    /// Heading (degrees from the crossing direction).
+    pub heading_deg: f64,
+    /// Diagonal angle α of the shape (degrees).
+    pub diagonal_deg: f64,
+    /// Advance needed to put every robot on the far side (m).
+    pub required: f64,
+    /// The gate's answer.
+    pub advance: Advance,
+    /// `advance.distance − required` (m): ≥ 0 crosses.
+    pub margin: f64,
+    /// Smallest internal stability margin (SOCP (42)) along a crossing the gate proves
+    /// (sampled every `step`); None when it does not cross or no connection is loaded.
+    pub stability_margin: Option<f64>,
+}
+
+impl Candidate {
+    /// The gate proves the whole crossing.
+    pub fn crosses(&self) -> bool {
+        self.margin >= 0.0
+    }
+}
+
+/// Why no plan can be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// Bad arguments.
+    #[error("{0}")]
+    Input(String),
+    /// The gate's adapter refused a candidate.
+    #[error("{shape}: {cause}")]
+    Adapter {
+        /// Candidate shape.
+        shape: String,
+        /// Cause.
+        cause: AdapterError,
+    },
+}
+
+/// Pilot index sets of `shape` for `pilots` pilots, one per distinct placement.
+fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
+    let (rows, per_row) = shape.rows();
+    if pilots == 0 {
+        return vec![(PilotPlace::None, vec![])];
+    }
+    let fronts: Vec<usize> = (0..rows).map(|r| r * per_row).collect();
+    let backs: Vec<usize> = (0..rows).map(|r| r * per_row + per_row - 1).collect();
+    let pick = |order: Vec<usize>| {
+        let mut s: Vec<usize> = Vec::new();
+        for k in order.into_iter().chain(0..rows * per_row) {
+            if s.len() == pilots {
+                break;
+            }
+            if !s.contains(&k) {
+                s.push(k);
+            }
+        }
+        s.sort_unstable();
+        s
+    };
+    let alternate: Vec<usize> = fronts
+        .iter()
+        .zip(&backs)
+        .flat_map(|(&f, &b)| [f, b])
+        .collect();
+    let mut out: Vec<(PilotPlace, Vec<usize>)> = Vec::new();
+    for (place, order) in [
+        (PilotPlace::Front, [fronts.clone(), backs.clone()].concat()),
+        (PilotPlace::Back, [backs.clone(), fronts.clone()].concat()),
+        (PilotPlace::FrontBack, alternate),
+    ] {
+        if place == PilotPlace::FrontBack && pilots < 2 {
+            continue;
+        }
+        let set = pick(order);
+        if !out.iter().any(|(_, s)| *s == set) {
+            out.push((place, set));
+        }
+    }
+    out
+}
+
+/// The formed assembly of `shape` with pilots `pilots`, its front robot at `front` heading
+/// `yaw`.
+pub fn formed(
+    shape: Shape,
+    pilots: &[usize],
+    params: &FleetParams,
+    front: [f64; 2],
+    yaw: f64,
+) -> PuzzleAssembly {
+    let g = &params.non_pilot.geometry;
+    let (at, links) = formation::layout(shape, g);
+    let (s, c) = yaw.sin_cos();
+    let robots: Vec<RobotPose> = at
+        .iter()
+        .enumerate()
+        .map(|(k, o)| RobotPose {
+            kind: if pilots.contains(&k) {
+                RobotKind::Pilot
+            } else {
+                RobotKind::NonPilot
+            },
+            x: front[0] + c * o[0] - s * o[1],
+            y: front[1] + s * o[0] + c * o[1],
+            yaw,
+        })
+        .collect();
+    let side = f64::from(g.side_point_x);
+    let half_w = 0.5 * f64::from(g.width);
+    let pairs = links
+        .iter()
+        .map(|&(l, a, b)| match l {
+            Link::Anchor => Pair {
+                a,
+                b,
+                kind: PairKind::Anchor,
+                point: None,
+            },
+            Link::Knob => Pair {
+                a,
+                b,
+                kind: PairKind::Knob,
+                // The side point of `a` nearest `b` (rows offset by half a body).
+                point: Some([(at[b][0] - at[a][0]).clamp(-side, side), half_w]),
+            },
+        })
+        .collect();
+    PuzzleAssembly { robots, pairs }
+}
+
+/// Rank every candidate for `robots` robots with `pilots` pilots crossing from the platform
+/// under (x_start, `start_y`) along +x; best first (crossing, then largest margin).
+pub fn plan(
+    terrain: &Terrain,
+    params: &FleetParams,
+    robots: usize,
+    pilots: usize,
+    opt: &CrossingOptions,
+) -> Result<Vec<Candidate>, PlanError> {
+    if robots == 0 || pilots > robots {
+        return Err(PlanError::Input(format!(
+            "--robots must be ≥ 1 and --pilots ≤ --robots (got {robots} and {pilots})"
+        )));
+    }
+    terrain
+        .validate_solid()
+        .map_err(|e| PlanError::Input(format!("terrain: {e}")))?;
+    if opt
+        .headings
+        .iter()
+        .any(|h| !h.is_finite() || h.abs() >= 1.5)
+    {
+        return Err(PlanError::Input(
+            "headings: must be finite and within ±86°".into(),
+        ));
+    }
+    let g = &params.non_pilot.geometry;
+    let mut out = Vec::new();
+    for shape in Shape::candidates(robots) {
+        for (place, set) in pilot_sets(shape, pilots) {
+            for &h in &opt.headings {
+                let Some(c) = candidate(terrain, params, shape, place, &set, h, opt)? else {
+                    continue;
+                };
+                out.push(Candidate {
+                    diagonal_deg: formation::diagonal_angle(shape, g).to_degrees(),
+                    ..c
+                });
+            }
+        }
+    }
+    if out.is_empty() {
+        return Err(PlanError::Input(format!(
+            "no start: no platform under y = {} ahead of a gap along +x",
+            opt.start_y
+        )));
+    }
+    let key = |c: &Candidate| c.stability_margin.unwrap_or(f64::INFINITY);
+    out.sort_by(|a, b| {
+        b.crosses().cmp(&a.crosses()).then(if a.crosses() {
+            key(b).total_cmp(&key(a))
+        } else {
+            b.margin.total_cmp(&a.margin)
+        })
+    });
+    Ok(out)
+}
+
+/// Index of the platform under `p`.
+fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
+    t.platforms.iter().position(|pl| pl.contains(p))
+}
+
+fn candidate(
+    terrain: &Terrain,
+    params: &FleetParams,
+    shape: Shape,
+    place: PilotPlace,
+    set: &[usize],
+    heading: f64,
+    opt: &CrossingOptions,
+) -> Result<Option<Candidate>, PlanError> {
+    // The start platform: the one under the line y = start_y with the smallest far edge.
+    let Some((start, edge)) = terrain
+        .platforms
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            let xs = p.polygon.iter().map(|v| v[0]);
+            let (lo, hi) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+            p.contains([0.5 * (lo + hi), opt.start_y])
+                .then_some((i, hi))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+    else {
+        return Ok(None);
+    };
+    // Place the front robot so the foremost body corner is `clearance` behind the edge.
+    let g = &params.non_pilot.geometry;
+    let probe = formed(shape, set, params, [0.0, opt.start_y], heading);
+    let (hl, hw) = (0.5 * f64::from(g.length), 0.5 * f64::from(g.width));
+    let (s, c) = heading.sin_cos();
+    let reach = probe
+        .robots
+        .iter()
+        .flat_map(|r| {
+            [[hl, hw], [hl, -hw], [-hl, hw], [-hl, -hw]].map(|[x, y]| r.x + c * x - s * y)
+        })
+        .fold(f64::MIN, f64::max);
+    let front = [edge - opt.clearance - reach, opt.start_y];
+    let a = formed(shape, set, params, front, heading);
+    // Advance along the heading until every centre stands on another platform.
+    let across = |d: f64| {
+        a.robots.iter().all(|r| {
+            let p = [r.x + c * d, r.y + s * d];
+            platform_at(terrain, p).is_some_and(|i| i != start)
+        })
+    };
+    let limit = 4.0 * formation::footprint(shape, g)[0] + 1.0;
+    let mut required = 0.0;
+    while !across(required) {
+        required += 0.001;
+        if required > limit {
+            return Ok(None); // nowhere to go along this heading
+        }
+    }
+    let advance = max_safe_advance_with(
+        &a,
+        params,
+        terrain,
+        heading,
+        opt.step,
+        AdvanceOptions {
+            rigid_couplings: false,
+            horizon: required + 0.01,
+        },
+    )
+    .map_err(|cause| PlanError::Adapter {
+        shape: shape.name(),
+        cause,
+    })?;
+    let margin = match advance.limited_by {
+        LimitedBy::Horizon => advance.distance - required,
+        _ => advance.distance.min(required + 0.01) - required,
+    };
+    let stability_margin = if margin >= 0.0 {
+        sampled_margin(&a, params, terrain, heading, required, opt.step).map_err(|cause| {
+            PlanError::Adapter {
+                shape: shape.name(),
+                cause,
+            }
+        })?
+    } else {
+        None
+    };
+    Ok(Some(Candidate {
+        shape: shape.name(),
+        pilots: place,
+        pilot_robots: set.to_vec(),
+        heading_deg: heading.to_degrees(),
+        diagonal_deg: 0.0,
+        required,
+        advance,
+        margin,
+        stability_margin,
+    }))
+}
+
+/// Smallest internal stability margin at samples every `step` along `distance` of advance.
+fn sampled_margin(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    heading: f64,
+    distance: f64,
+    step: f64,
+) -> Result<Option<f64>, AdapterError> {
+    let Some(level) = assembly_level(a, params, terrain) else {
+        return Ok(None);
+    };
+    let (s, c) = heading.sin_cos();
+    let n = (distance / step).ceil() as usize;
+    let mut worst: Option<f64> = None;
+    for k in 0..=n {
+        let d = (k as f64 * step).min(distance);
+        let m = build_model(a, params, terrain, level, [c * d, s * d], false)?;
+        if let Some(margin) = evaluate(&m)?.margin {
+            worst = Some(worst.map_or(margin, |w: f64| w.min(margin)));
+        }
+    }
+    Ok(worst)
+}
+
+/// Read a terrain file (TOML, `[[platforms]]` tables as in `puzzlebot_params::terrain`) and
+/// check it ([`Terrain::validate_solid`]); errors name the file, line and field.
+pub fn load_terrain(path: &std::path::Path) -> Result<Terrain, PlanError> {
+    let t: Terrain = puzzlebot_params::load::from_toml_file(path)
+        .map_err(|e| PlanError::Input(e.to_string()))?;
+    t.validate_solid().map_err(|e| {
+        // Point at the `[[platforms]]` table of the platform the message names.
+        let index = e
+            .strip_prefix("platforms[")
+            .and_then(|r| r.split(']').next())
+            .and_then(|n| n.parse::<usize>().ok());
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let line = index.and_then(|i| {
+            text.lines()
+                .enumerate()
+                .filter(|(_, l)| l.trim_start().starts_with("[[platforms]]"))
+                .nth(i)
+                .map(|(n, _)| n + 1)
+        });
+        match line {
+            Some(n) => PlanError::Input(format!("{}:{n}: {e}", path.display())),
+            None => PlanError::Input(format!("{}: {e}", path.display())),
+        }
+    })?;
+    Ok(t)
+}
+
+/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON.
+pub fn crossing_command(
+    terrain: &std::path::Path,
+    robots: usize,
+    pilots: usize,
+    start_y: f64,
+    json: bool,
+) -> Result<String, PlanError> {
+    let t = load_terrain(terrain)?;
+    let opt = CrossingOptions {
+        start_y,
+        ..CrossingOptions::default()
+    };
+    let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
+    Ok(if json {
+        serde_json::to_string_pretty(&c).map_err(|e| PlanError::Input(e.to_string()))?
+    } else {
+        let best = &c[0];
+        let verdict = if best.crosses() {
+            format!(
+                "best: {} with pilots {:?} at {:.0}° (smallest stability margin {})\n",
+                best.shape,
+                best.pilot_robots,
+                best.heading_deg,
+                best.stability_margin
+                    .map_or("-".to_string(), |m| format!("{m:.3}"))
+            )
+        } else {
+            "no candidate is proven to cross: the host refuses this crossing\n".to_string()
+        };
+        render(&c) + &verdict
+    })
+}
+
+/// The ranking as a table (best first): shape, pilots, heading, α, required advance, the
+/// gate's advance and what limits it, margin, verdict.
+pub fn render(cands: &[Candidate]) -> String {
+    let mut s = String::from(
+        "shape      pilots      heading  alpha  needed_mm  proven_mm  limited_by       margin_mm  stability  verdict\n",
+    );
+    for c in cands {
+        let why = match &c.advance.limited_by {
+            LimitedBy::Horizon => "-".to_string(),
+            LimitedBy::Tips => "tips".to_string(),
+            LimitedBy::Connection { pairs } => format!("pairs {pairs:?}"),
+            LimitedBy::StepUp { robot } => format!("step up r{robot}"),
+            LimitedBy::NotProven { .. } => "not proven".to_string(),
+        };
+        s.push_str(&format!(
+            "{:<10} {:<11} {:>6.0}°  {:>4.1}°  {:>9.1}  {:>9.1}  {:<15}  {:>9.1}  {:>9}  {}\n",
+            c.shape,
+            format!("{:?}{:?}", c.pilots, c.pilot_robots),
+            c.heading_deg,
+            c.diagonal_deg,
+            c.required * 1e3,
+            c.advance.distance * 1e3,
+            why,
+            c.margin * 1e3,
+            c.stability_margin
+                .map_or("-".to_string(), |m| format!("{m:.3}")),
+            if c.crosses() { "crosses" } else { "refused" }
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use puzzlebot_params::terrain::Platform;
+
+    fn gap(w: f64) -> Terrain {
+        Terrain {
+            platforms: vec![
+                Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.0),
+                Platform::rect("far", [w, -0.5], [w + 1.0, 0.5], 0.0),
+            ],
+        }
+    }
+
+    #[test]
+    fn pilot_places_are_distinct_sets() {
+        let mesh = Shape::Mesh {
+            rows: 2,
+            per_row: 2,
+        };
+        let sets = pilot_sets(mesh, 1);
+        assert_eq!(
+            sets,
+            vec![(PilotPlace::Front, vec![0]), (PilotPlace::Back, vec![1])]
+        );
+        assert_eq!(
+            pilot_sets(Shape::Line(3), 0),
+            vec![(PilotPlace::None, vec![])]
+        );
+        // A line has one front and one back: two pilots sit there whichever way.
+        assert_eq!(pilot_sets(Shape::Line(3), 2).len(), 1);
+        assert_eq!(pilot_sets(mesh, 2).len(), 3);
+    }
+
+    #[test]
+    fn a_single_robot_cannot_cross_what_a_mesh_can() {
+        let p = FleetParams::default();
+        let opt = CrossingOptions {
+            headings: vec![0.0, 0.7],
+            ..CrossingOptions::default()
+        };
+        // 40 mm on equal heights: one robot tips into it, a 2 x 2 mesh is carried across.
+        let lone = plan(&gap(0.04), &p, 1, 0, &opt).unwrap();
+        assert!(lone.iter().all(|c| !c.crosses()), "{}", render(&lone));
+        let four = plan(&gap(0.04), &p, 4, 1, &opt).unwrap();
+        assert!(four[0].crosses(), "{}", render(&four));
+        assert!(four.iter().any(|c| c.shape == "mesh 2x2" && c.crosses()));
+        // A bad terrain file is refused naming file, line and field.
+        let dir = std::env::temp_dir().join(format!("crossing-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("t.toml");
+        std::fs::write(
+            &f,
+            "[[platforms]]\npolygon = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]\n\n\
+             [[platforms]]\npolygon = [[0.5, 0.0], [2.0, 0.0], [2.0, 1.0], [0.5, 1.0]]\n",
+        )
+        .unwrap();
+        let e = load_terrain(&f).unwrap_err().to_string();
+        assert!(
+            e.ends_with(":4: platforms[1].polygon: overlaps platforms[0] (\"\" and \"\")"),
+            "{e}"
+        );
+        std::fs::write(
+            &f,
+            "[[platforms]]\npolygon = [[0.0, 0.0]]\nheight = \"x\"\n",
+        )
+        .unwrap();
+        let e = load_terrain(&f).unwrap_err().to_string();
+        assert!(e.contains("t.toml:3:"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+        // Bad input is refused with the reason.
+        let e = plan(&gap(0.04), &p, 2, 3, &opt).unwrap_err().to_string();
+        assert!(e.contains("--pilots"), "{e}");
+    }
+}
