@@ -646,6 +646,7 @@ mod tests {
             .sin_cos();
         let out = moved(&goal, &[first.a], 0.008 * co, 0.008 * s);
         c.tick(5.2, &out);
+        c.tick(5.25, &out);
         let tick = c.tick(5.3, &out);
         let speed = |id: RobotId| match role_of(&tick, id) {
             Role::Velocity { v, w } => (*v, *w),

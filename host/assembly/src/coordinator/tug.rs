@@ -29,13 +29,38 @@ fn in_guide(c: &Coupling, g: &Geometry, m: &PairMeasure) -> bool {
         && m.yaw_error.abs() <= f64::from(c.anchor_yaw_range)
 }
 
-/// A tug under way on one pair.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A tug under way on one pair: the head positions seen over the last
+/// [`DockConfig::tug_s`].
+#[derive(Debug, Clone, PartialEq, Default)]
 pub(super) struct Tug {
-    /// Since when (s).
-    since: f64,
-    /// The head in the opening robot's frame when it started (m).
-    head: [f64; 2],
+    /// (time (s), the head in the opening robot's frame (m)), oldest first.
+    heads: Vec<(f64, [f64; 2])>,
+}
+
+/// Mean head of `samples` (m).
+fn mean(samples: &[(f64, [f64; 2])]) -> [f64; 2] {
+    let n = samples.len().max(1) as f64;
+    let s = samples
+        .iter()
+        .fold([0.0, 0.0], |s, (_, h)| [s[0] + h[0], s[1] + h[1]]);
+    [s[0] / n, s[1] / n]
+}
+
+impl Tug {
+    /// The tug's verdict: the head stayed in the guide and moved by no more than `reach`.
+    /// Judged on the means over the first and the last third of the tug, not on single
+    /// poses: one pose's head error is two robots' capture noise plus their yaw noise times
+    /// the lever, comparable to the 1 mm by which a head at full travel lies inside the
+    /// guide, so a test on every pose fails a held anchor under a noisy capture.
+    fn held(&self, inside: impl Fn([f64; 2]) -> bool, reach: f64) -> bool {
+        let third = self.heads.len() / 3;
+        if third == 0 {
+            return false;
+        }
+        let first = mean(&self.heads[..third]);
+        let last = mean(&self.heads[self.heads.len() - third..]);
+        inside(first) && inside(last) && (last[0] - first[0]).hypot(last[1] - first[1]) <= reach
+    }
 }
 
 impl Coordinator {
@@ -45,6 +70,8 @@ impl Coordinator {
         let c = self.cfg.tolerances.coupling;
         let reach = f64::from(c.anchor_travel) + f64::from(c.anchor_seat);
         let tol = self.cfg.tolerances;
+        let g = self.geometry;
+        let window = self.cfg.dock.tug_s;
         let mut confirmed = Vec::new();
         for (i, tp) in self.pairs.iter().enumerate() {
             let Some(m) = tp.last else {
@@ -59,18 +86,19 @@ impl Coordinator {
                 || tp.status == PairStatus::Connected
                 || self.released.contains(&i)
                 || !pulled
-                || !in_guide(&c, &self.geometry, &m)
             {
                 self.tugs.remove(&i);
                 continue;
             }
-            let head = m.head_in_b;
-            let tug = self.tugs.entry(i).or_insert(Tug { since: t, head });
-            if (head[0] - tug.head[0]).hypot(head[1] - tug.head[1]) > reach {
-                *tug = Tug { since: t, head };
-            } else if t - tug.since >= self.cfg.dock.tug_s {
+            let inside = |h: [f64; 2]| in_guide(&c, &g, &PairMeasure { head_in_b: h, ..m });
+            let tug = self.tugs.entry(i).or_default();
+            tug.heads.push((t, m.head_in_b));
+            // The window: the last `tug_s`, evaluated once it is full.
+            let full = tug.heads.first().is_some_and(|&(t0, _)| t - t0 >= window);
+            if full && tug.held(inside, reach) {
                 confirmed.push(i);
             }
+            tug.heads.retain(|&(ts, _)| t - ts < window);
         }
         for i in confirmed {
             self.tugs.remove(&i);
