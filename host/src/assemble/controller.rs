@@ -1,0 +1,374 @@
+//! The assembly controller: the assembly [`Coordinator`] (through a [`ScenarioRunner`])
+//! assigns each robot a task every 10 Hz tick, each task becomes cost terms of that robot's
+//! MPC problem ([`DistributedMpc`], THESIS Algorithm 9, 5.19–5.26), coupled pairs become the
+//! MPC's coupling constraints, and the stability gate bounds every moving assembly.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use puzzlebot_assembly::{
+    Coordinator, CoordinatorConfig, Event, EventKind, Mode, PairStatus, PairTolerances, PairType,
+    RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner,
+};
+use puzzlebot_mpc::{
+    CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose, RobotInput, SolveStatus,
+};
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::messages::RobotId;
+
+use super::costs::{costs, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
+use super::gate::{Gate, GateConfig, GateStop};
+use super::latency::{PoseHistory, FLEET_WAIT_S, MAX_PREDICTION_S};
+use super::slow_steps::slow_step_warnings;
+use crate::control::{Controller, FleetView, HandRequest};
+use crate::drive::Twist;
+
+/// Assembly scenario → tasks → distributed MPC → (v, ω), with the stability gate.
+pub struct AssemblyController {
+    runner: ScenarioRunner,
+    mpc: DistributedMpc,
+    params: FleetParams,
+    gate: Gate,
+    t0: Option<f64>,
+    last_t: f64,
+    /// Every coordinator event (pair status changes, steps), in order.
+    pub events: Vec<Event>,
+    /// Every gate stop (one per change of the stop state of an assembly).
+    pub gate_stops: Vec<GateStop>,
+    /// MPC ticks whose solve failed for some robot (fallback/stop).
+    pub mpc_failures: u64,
+    /// Robots ever seen.
+    seen: BTreeSet<RobotId>,
+    /// Failed solves by reason.
+    pub mpc_failure_reasons: BTreeMap<String, u64>,
+    /// Give coupled anchor pairs to the MPC as hard coupling constraints (THESIS 5.23–5.24)
+    /// besides their soft maintenance cost (4.8). Off by default: a seated anchor's faces
+    /// touch, so the cutting planes (5.17–5.18), which ask for `constraint_margin` between
+    /// them, make the QPs primal infeasible (measured: 456 of 456 solves in the gap run, 143
+    /// of ≈ 150 ticks with pairs in the lockstep line). When on, such ticks are solved again
+    /// with the soft cost only (counted in `constraint_retries`).
+    pub coupling_constraints: bool,
+    /// Ticks re-solved without the hard coupling constraints.
+    pub constraint_retries: u64,
+    /// Extra seconds after the scenario ends before [`Controller::done`].
+    pub settle: f64,
+    /// Log milestones (steps, couplings, formation, lost robots) on the console (default on;
+    /// off for batch runs such as the coupling experiment).
+    pub log_milestones: bool,
+    /// Longest a pose is predicted ahead from its measured velocity (s): its age plus the
+    /// command latency, capped here (the velocity estimate is a short window's mean).
+    pub max_prediction_s: f64,
+    /// Longest the first plan waits for every online robot's first pose (s).
+    pub fleet_wait_s: f64,
+    /// The scenario has had its first tick.
+    runner_started: bool,
+    /// Every robot's last pose and velocity, for [`AssemblyController::max_prediction_s`].
+    poses: PoseHistory,
+    /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
+    coupled: BTreeSet<RobotId>,
+    finished_at: Option<f64>,
+    /// Hand requests not yet taken by the run ([`Controller::hand_requests`]).
+    hand: Vec<HandRequest>,
+}
+
+impl AssemblyController {
+    /// A controller running `scenario` with the fleet parameters `params`.
+    pub fn new(
+        scenario: AsmScenario,
+        params: FleetParams,
+        gate: GateConfig,
+    ) -> anyhow::Result<Self> {
+        let g = params.non_pilot.geometry;
+        let cfg = CoordinatorConfig {
+            tolerances: PairTolerances::from_params(&g, &params.non_pilot.coupling),
+            dt: 1.0 / f64::from(params.rates.mpc_hz).max(1e-3),
+            ..CoordinatorConfig::default()
+        };
+        for w in slow_step_warnings(&scenario, &params) {
+            tracing::warn!("{w}");
+        }
+        let coordinator = Coordinator::new(g, cfg);
+        let cfg = MpcConfig {
+            geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),
+            hard_couplings: false,
+            maintain_heading: MAINTAIN_HEADING_FORM,
+            ..MpcConfig::default()
+        };
+        let mpc = DistributedMpc::with_threads(cfg, 1)?;
+        let gate = Gate::new(gate, params.clone());
+        Ok(AssemblyController {
+            runner: ScenarioRunner::new(scenario, coordinator),
+            mpc,
+            params,
+            gate,
+            t0: None,
+            last_t: 0.0,
+            events: Vec::new(),
+            gate_stops: Vec::new(),
+            mpc_failures: 0,
+            seen: BTreeSet::new(),
+            mpc_failure_reasons: BTreeMap::new(),
+            coupling_constraints: false,
+            constraint_retries: 0,
+            settle: 0.5,
+            log_milestones: true,
+            max_prediction_s: MAX_PREDICTION_S,
+            poses: PoseHistory::default(),
+            fleet_wait_s: FLEET_WAIT_S,
+            runner_started: false,
+            coupled: BTreeSet::new(),
+            finished_at: None,
+            hand: Vec::new(),
+        })
+    }
+
+    /// The scenario runner (state, coordinator, pairs).
+    pub fn runner(&self) -> &ScenarioRunner {
+        &self.runner
+    }
+
+    /// Where the scenario stands.
+    pub fn state(&self) -> &RunState {
+        self.runner.state()
+    }
+
+    fn limits(&self, kind: RobotKind) -> Limits {
+        Limits::from_drive(&self.params.robot(kind).drive)
+    }
+}
+
+impl Controller for AssemblyController {
+    fn name(&self) -> &str {
+        "assembly"
+    }
+
+    fn rate_hz(&self) -> f64 {
+        1.0 / self.mpc.config().dt
+    }
+
+    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
+        let t0 = *self.t0.get_or_insert(view.t);
+        let t = view.t - t0;
+        self.last_t = t;
+        // Every pose brought to this tick's time (motion capture delivers them at different
+        // ages: a dropout leaves one robot's pose older than its partner's, and the pair
+        // measure would mix two instants), and, for the MPC's initial states, on to when the
+        // commands of this tick act (the measured latency).
+        // A robot missing from this view (a motion-capture dropout) keeps its last pose and
+        // velocity for up to the prediction horizon; without either, the coordinator would
+        // pair its stale pose with its partners' fresh ones.
+        let horizon = self.max_prediction_s;
+        self.poses.observe(view, horizon);
+        // Before the first plan, every online robot must have been seen: a robot whose first
+        // pose has not arrived would be left out of the plan (its shape then has a slot too
+        // many). Everyone holds meanwhile, for at most `fleet_wait_s`.
+        if !self.runner_started {
+            let unseen = view.robots.iter().any(|r| !self.poses.contains(r.id));
+            if unseen && t < self.fleet_wait_s {
+                return BTreeMap::new();
+            }
+            self.runner_started = true;
+        }
+        let states = self.poses.states_at(view.t, 0.0, horizon);
+        let predicted = self
+            .poses
+            .states_at(view.t, view.latency_s.max(0.0), horizon);
+        self.seen.extend(states.iter().map(|s| s.id));
+        let tick = self.runner.tick(t, &states);
+        if tracing::enabled!(target: "puzzlebot::roles", tracing::Level::TRACE) {
+            for task in &tick.tasks {
+                tracing::trace!(target: "puzzlebot::roles", t = format!("{t:.1}"), ?task, active = ?tick.active);
+            }
+        }
+        // Progress on the console: steps, couplings, formation, lost robots.
+        for e in &tick.events {
+            let milestone = match &e.kind {
+                EventKind::PairStatus { to, .. } => *to == PairStatus::Connected,
+                EventKind::StepStarted { .. }
+                | EventKind::StepFinished { .. }
+                | EventKind::StepFailed { .. }
+                | EventKind::FormationComplete
+                | EventKind::LiftKnobs { .. }
+                | EventKind::RobotLost { .. }
+                | EventKind::Recoupling { .. }
+                | EventKind::Recoupled { .. }
+                | EventKind::Replanned { .. } => true,
+                _ => false,
+            };
+            if milestone && self.log_milestones {
+                tracing::info!(t = format!("{:.1}", e.t), event = %serde_json::to_string(&e.kind).unwrap_or_default(), "assembly");
+            }
+        }
+        for e in &tick.events {
+            if let EventKind::LiftKnobs { robots, pairs } = &e.kind {
+                if self.log_milestones {
+                    tracing::warn!(
+                        "lift the knob pairs {pairs:?} among robots {robots:?} apart by hand and \
+                     set the rows down a few centimetres apart (knobs hold more than the \
+                     robots can pull, THESIS 5.5.3); the anchors are wiggled open after"
+                    );
+                }
+                self.hand.push(HandRequest::LiftKnobs {
+                    robots: robots.clone(),
+                });
+            }
+        }
+        self.events.extend(tick.events.iter().cloned());
+        if !matches!(self.runner.state(), RunState::Running { .. }) && self.finished_at.is_none() {
+            self.finished_at = Some(t);
+        }
+        let by_id: BTreeMap<RobotId, &RobotState> = predicted.iter().map(|s| (s.id, s)).collect();
+        let mut inputs = Vec::new();
+        let mut straight = BTreeSet::new();
+        let mut wait = BTreeSet::new();
+        let mut segments: BTreeMap<usize, Vec<RobotId>> = BTreeMap::new();
+        // Assemblies with a connected knob pair: rigid in part (a mesh), not a train.
+        let segment_of: BTreeMap<RobotId, usize> =
+            tick.tasks.iter().map(|t| (t.robot, t.segment)).collect();
+        let meshes: BTreeSet<usize> = self
+            .runner
+            .coordinator()
+            .pairs()
+            .iter()
+            .filter(|p| p.status == PairStatus::Connected && p.pair.kind == PairType::KnobHole)
+            .filter_map(|p| segment_of.get(&p.pair.a).copied())
+            .collect();
+        for task in &tick.tasks {
+            let Some(s) = by_id.get(&task.robot) else {
+                continue;
+            };
+            segments.entry(task.segment).or_default().push(task.robot);
+            if task.straight_only {
+                straight.insert(task.robot);
+            }
+            // Waiting robots are not driven (THESIS 3.5.2); holding robots stand still (with
+            // no target the MPC's smoothness term would carry on their last command).
+            if matches!(task.role, Role::Wait | Role::Hold) {
+                wait.insert(task.robot);
+            }
+            inputs.push(RobotInput {
+                id: task.robot,
+                pose: Pose::new(s.pose.x, s.pose.y, s.pose.yaw),
+                limits: self.limits(s.kind),
+                costs: costs(&task.role, meshes.contains(&task.segment)),
+            });
+        }
+        // Partners/leaders that are not in this tick's inputs would be rejected by the MPC.
+        let present: BTreeSet<RobotId> = inputs.iter().map(|r| r.id).collect();
+        for r in &mut inputs {
+            r.costs.retain(|c| match c {
+                CostTerm::AlignPair { partner, .. } => present.contains(partner),
+                CostTerm::FollowLeader { leader, .. } => present.contains(leader),
+                _ => true,
+            });
+        }
+        let pairs: Vec<CoupledPair> = tick
+            .maintain
+            .iter()
+            .filter(|m| m.kind == PairType::AnchorOpening)
+            .filter(|m| present.contains(&m.a) && present.contains(&m.b))
+            .map(|m| CoupledPair {
+                anchor_robot: m.a,
+                opening_robot: m.b,
+            })
+            .collect();
+        let mut out = BTreeMap::new();
+        // The wiggle (THESIS 5.7) is an open-loop command: the MPC's smoothing would filter
+        // out its square wave, so wiggling robots get it directly.
+        let mut direct: BTreeMap<RobotId, Twist> = BTreeMap::new();
+        if matches!(self.runner.coordinator().mode(), Mode::Decouple { .. }) {
+            for task in &tick.tasks {
+                if let Role::Velocity { v, w } = task.role {
+                    direct.insert(task.robot, Twist::new(v, w));
+                }
+            }
+        }
+        for task in &tick.tasks {
+            if let Role::Dock { v, w, .. } | Role::Hitch { v, w, .. } = task.role {
+                direct.insert(task.robot, Twist::new(v, w));
+            }
+        }
+        // Joints held straight while forming, freer while an assembly moves (a train bends
+        // in turns).
+        let heading = if matches!(self.runner.coordinator().mode(), Mode::Form) {
+            MAINTAIN_HEADING_FORM
+        } else {
+            MAINTAIN_HEADING_MOVE
+        };
+        // Both constants are finite and ≥ 0: the setter cannot refuse them.
+        let _ = self.mpc.set_maintain_heading(heading);
+        self.mpc.set_hard_couplings(self.coupling_constraints);
+        let mut result = self.mpc.tick(&inputs, &pairs);
+        // See `coupling_constraints`: when the hard-constrained QPs are infeasible, solve
+        // again with the soft maintenance cost only.
+        if self.coupling_constraints
+            && !pairs.is_empty()
+            && result
+                .as_ref()
+                .is_ok_and(|o| o.robots.iter().any(|r| !r.status.is_solved()))
+        {
+            self.constraint_retries += 1;
+            self.mpc.set_hard_couplings(false);
+            result = self.mpc.tick(&inputs, &pairs);
+        }
+        match result {
+            Ok(o) => {
+                for r in o.robots {
+                    if !r.status.is_solved() {
+                        self.mpc_failures += 1;
+                        let reason = match &r.status {
+                            SolveStatus::Fallback { reason, .. }
+                            | SolveStatus::Stopped { reason } => reason.clone(),
+                            SolveStatus::Solved { .. } => String::new(),
+                        };
+                        *self.mpc_failure_reasons.entry(reason).or_insert(0) += 1;
+                    }
+                    let mut w = r.command.omega;
+                    // Pilots move straight only (THESIS 5.4.1); waiting robots are not driven
+                    // (THESIS 3.5.2).
+                    if straight.contains(&r.id) {
+                        w = 0.0;
+                    }
+                    let tw = if wait.contains(&r.id) {
+                        Twist::new(0.0, 0.0)
+                    } else {
+                        Twist::new(r.command.v, w)
+                    };
+                    out.insert(r.id, tw);
+                }
+            }
+            Err(e) => {
+                self.mpc_failures += 1;
+                tracing::warn!("assembly MPC input rejected: {e}");
+            }
+        }
+        out.extend(direct);
+        let segs: BTreeMap<usize, Vec<RobotId>> =
+            segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
+        // Robots in a pair that is inserted or connected move with their partners.
+        self.coupled = self
+            .runner
+            .coordinator()
+            .pairs()
+            .iter()
+            .filter(|p| matches!(p.status, PairStatus::HeadInserted | PairStatus::Connected))
+            .flat_map(|p| [p.pair.a, p.pair.b])
+            .collect();
+        let maintain = tick.maintain.clone();
+        let dt = 1.0 / self.rate_hz();
+        let stops = self.gate.apply(t, dt, &states, &maintain, &segs, &mut out);
+        self.gate_stops.extend(stops);
+        out
+    }
+
+    fn done(&self, t: f64) -> bool {
+        self.finished_at.is_some_and(|f| t >= f + self.settle)
+    }
+
+    fn stabilise(&self, id: RobotId) -> bool {
+        !self.coupled.contains(&id)
+    }
+
+    fn hand_requests(&mut self) -> Vec<HandRequest> {
+        std::mem::take(&mut self.hand)
+    }
+}

@@ -1,0 +1,160 @@
+//! Cost terms of each robot's MPC problem, one set per coordinator task (THESIS 4.5–4.8,
+//! 5.25, 5.26), and the heading weights they use.
+
+use puzzlebot_assembly::{PairStatus, PairType, Pose2, Role};
+use puzzlebot_mpc::{Command, ConnectionPoint, CostTerm, Pose, StageWeights};
+
+/// Heading weight of the anchors' maintenance cost (THESIS 4.8; relative to its position
+/// weight W_c = 1000, see `MpcConfig::maintain_heading`) while a shape forms: keeps coupled
+/// joints straight while their robots align with others. Measured 2026-12-01 in lockstep
+/// (seeds 1–24 at 0 and 20 ms): the driving line passes 46 of 48 (32 with the hard
+/// constraints and their infeasible retries, the previous behaviour), the 2×2 mesh 48 of 48
+/// (41), the lost-robot line 21 of 24 at 30 ms (24; 24 again once an assembly holds while a
+/// lone robot joins it, see `Coordinator::tasks`); 0.006 gave 37 / 48 / 23, 0.012
+/// 41 / 46 / 19, 0.03 fewer (the joints too stiff to let a segment meet its partner).
+pub const MAINTAIN_HEADING_FORM: f64 = 0.008;
+/// Heading weight of the anchors' maintenance cost while assemblies move (a train must bend
+/// in a turn: ≈ 0.2 rad at a 0.3 m radius); the line passed the same from 1e-4 to 0.003.
+pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
+
+/// Heading weight (relative to position) of a robot hanging at a connected anchor while its
+/// assembly moves (its role aligns it with its partner, see `Coordinator::tasks`) when that
+/// assembly is a mesh (a connected knob pair makes it rigid in part): keeps it steering in
+/// line like a knob pair does. A robot pushed along at an anchor (a pilot at the front of a
+/// driving mesh) swings into the anchor's play and turns the mesh after it. A train keeps the
+/// anchors' weak heading term: it bends in turns.
+pub const HANG_HEADING: f64 = 0.1;
+
+/// Heading weight (relative to position) of a held member of a grown assembly keeping its
+/// pose (`Role::Keep`): it turns back when a robot docking at its side turns it about its
+/// anchor. Only the held robots of a grown assembly keep their poses: in an assembly formed
+/// in parallel the held robots turning back strain the couplings already made.
+pub const KEEP_HEADING: f64 = 0.01;
+
+/// THESIS (4.5)–(4.7), (5.25), (5.26): a task's cost terms; `in_mesh`: the robot's
+/// assembly has a connected knob pair.
+pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
+    let lead = StageWeights {
+        stage: 1.0e3,
+        terminal: 1.0e4,
+    };
+    let follow = StageWeights {
+        stage: 1.0e2,
+        terminal: 1.0e3,
+    };
+    let p = |q: &Pose2| Pose::new(q.x, q.y, q.yaw);
+    match role {
+        Role::Hold | Role::Wait => Vec::new(),
+        Role::Keep { pose } => vec![CostTerm::FollowTrajectory {
+            reference: vec![p(pose)],
+            weights: lead,
+            heading: KEEP_HEADING,
+        }],
+        Role::Align {
+            partner,
+            own_point,
+            partner_point,
+            relative_yaw,
+            kind,
+            phase,
+            ..
+        } => vec![CostTerm::AlignPair {
+            partner: *partner,
+            own: ConnectionPoint {
+                pos: *own_point,
+                angle: 0.0,
+            },
+            partner_point: ConnectionPoint {
+                pos: *partner_point,
+                angle: *relative_yaw,
+            },
+            weights: lead,
+            // A knob fits only within atan(1/25) ≈ 0.04 rad (THESIS 5.2.3): its pair
+            // needs the heading as much as the position.
+            heading: match kind {
+                PairType::KnobHole => 1.0e-1,
+                PairType::AnchorOpening if in_mesh && *phase == PairStatus::Connected => {
+                    HANG_HEADING
+                }
+                PairType::AnchorOpening => 1.0e-3,
+            },
+        }],
+        Role::Follow { leader, offset } => vec![CostTerm::FollowLeader {
+            leader: *leader,
+            offset: p(offset),
+            weights: follow,
+            heading: 1.0e-3,
+        }],
+        // A hitched train member drives its command directly; its MPC fits the same
+        // twist so the plan its neighbours see is the one it drives.
+        Role::Velocity { v, w } | Role::Hitch { v, w, .. } => vec![CostTerm::FitVelocity {
+            target: Command { v: *v, omega: *w },
+            w_v: 1.0e3,
+            w_omega: 1.0e2,
+        }],
+        Role::GoTo { goal, use_yaw } => {
+            if *use_yaw {
+                vec![CostTerm::FollowTrajectory {
+                    reference: vec![p(goal)],
+                    weights: lead,
+                    heading: 1.0e-2,
+                }]
+            } else {
+                vec![CostTerm::GoToGoal {
+                    goal: [goal.x, goal.y],
+                    point: [0.0, 0.0],
+                    weights: lead,
+                }]
+            }
+        }
+        Role::Track { reference } => vec![CostTerm::FollowTrajectory {
+            reference: reference.iter().map(p).collect(),
+            weights: lead,
+            heading: 1.0e-3,
+        }],
+        // Docking drives directly (see `Role::Dock`).
+        Role::Dock { .. } => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_robot_hanging_at_an_anchor_keeps_in_line_in_a_mesh_and_bends_in_a_train() {
+        let hanging = |phase| Role::Align {
+            pair: 0,
+            partner: 2,
+            own_point: [0.04, 0.0],
+            partner_point: [-0.04, 0.0],
+            relative_yaw: 0.0,
+            kind: PairType::AnchorOpening,
+            phase,
+        };
+        let heading = |role: &Role, in_mesh| match costs(role, in_mesh)[..] {
+            [CostTerm::AlignPair { heading, .. }] => heading,
+            ref c => panic!("costs {c:?}"),
+        };
+        let moving = hanging(PairStatus::Connected);
+        assert_eq!(heading(&moving, true), HANG_HEADING);
+        // A train bends in turns; an anchor being inserted is steered by its position.
+        assert!(heading(&moving, false) < HANG_HEADING / 10.0);
+        assert!(heading(&hanging(PairStatus::HeadAligned), true) < HANG_HEADING / 10.0);
+    }
+
+    #[test]
+    fn a_kept_robot_is_driven_back_to_its_pose_and_a_held_one_is_not_driven() {
+        let pose = Pose2::new(0.1, -0.2, 0.3);
+        match &costs(&Role::Keep { pose }, false)[..] {
+            [CostTerm::FollowTrajectory {
+                reference, heading, ..
+            }] => {
+                assert_eq!(reference, &vec![Pose::new(0.1, -0.2, 0.3)]);
+                assert_eq!(*heading, KEEP_HEADING);
+            }
+            c => panic!("costs {c:?}"),
+        }
+        assert!(costs(&Role::Hold, false).is_empty());
+    }
+}
