@@ -78,6 +78,10 @@ pub trait Controller: Send {
     fn hand_requests(&mut self) -> Vec<HandRequest> {
         Vec::new()
     }
+    /// Where the run is (scenario step, pairs coupled), for the progress line on the terminal.
+    fn progress(&self) -> Option<crate::replay::Progress> {
+        None
+    }
 }
 
 /// Work for a person's hands (THESIS 5.5.3: knob pairs hold until lifted apart).
@@ -505,6 +509,7 @@ impl ControlLoop {
             if let Some(pb) = progress {
                 pb.set_position((t * 10.0) as u64);
             }
+            crate::replay::progress::observe(t, || controller.progress());
             let statuses = self.link.statuses();
             let online: Vec<_> = statuses
                 .iter()

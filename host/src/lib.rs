@@ -16,5 +16,6 @@ pub mod link;
 pub mod lockstep;
 pub mod pose;
 pub mod record;
+pub mod replay;
 pub mod report;
 pub mod simulated;

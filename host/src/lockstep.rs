@@ -385,6 +385,7 @@ impl Lockstep {
                     sent.push((rv.id, msg));
                 }
                 crate::record::observe(t, &self.world, &view, &sent);
+                crate::replay::progress::observe(t, || ctl.progress());
             }
             self.world.step();
             self.host.pump(&mut self.world);

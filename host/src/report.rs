@@ -1,5 +1,6 @@
 //! Run folders: `runs/<UTC timestamp>-<name>/` with JSON-lines telemetry and events, a
-//! summary, and SVG plots of trajectories and wheel-speed tracking.
+//! summary, and SVG plots of path tracking and wheel speeds. Pictures of assembly runs
+//! (footprints at the milestones) and the replay page come from [`crate::replay`].
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -121,12 +122,13 @@ impl RunFolder {
         Ok(p)
     }
 
-    /// Flush the logs and draw the plots; returns the files written.
+    /// Flush the logs and draw the plots; returns the files written. `trajectories.svg`
+    /// (measured against reference paths) is drawn for runs that follow references.
     pub fn finish(&mut self) -> std::io::Result<Vec<PathBuf>> {
         self.telemetry.flush()?;
         self.events.flush()?;
         let mut out = Vec::new();
-        if !self.traces.is_empty() {
+        if self.traces.values().any(|t| !t.reference.is_empty()) {
             let p = self.dir.join("trajectories.svg");
             plot_trajectories(&p, &self.traces).map_err(std::io::Error::other)?;
             out.push(p);
@@ -162,7 +164,8 @@ fn bounds(it: impl Iterator<Item = (f64, f64)>) -> ((f64, f64), (f64, f64)) {
     ((x0 - pad, x1 + pad), (y0 - pad, y1 + pad))
 }
 
-/// Plot every robot's actual path (solid) and reference (thin) in the x–y plane.
+/// Plot every robot's actual path (solid) and reference (thin) in the x–y plane: how well
+/// paths were tracked.
 pub fn plot_trajectories(path: &Path, traces: &BTreeMap<RobotId, Traces>) -> Result<(), String> {
     let root = SVGBackend::new(path, (900, 800)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -306,6 +309,16 @@ mod tests {
         let lines = std::fs::read_to_string(f.dir().join("telemetry.jsonl")).expect("read");
         assert_eq!(lines.lines().count(), 1);
         assert_eq!(utc_stamp().len(), 15);
+    }
+
+    #[test]
+    fn paths_without_references_get_no_tracking_plot() {
+        let base = std::env::temp_dir().join(format!("pb-runs-paths-{}", std::process::id()));
+        let mut f = RunFolder::create(&base, "paths").expect("create");
+        f.traces.entry(1).or_default().actual = vec![(0.0, 0.0, 0.0), (0.1, 0.01, 0.0)];
+        assert!(f.finish().expect("finish").is_empty());
+        assert!(!f.dir().join("trajectories.svg").exists());
+        std::fs::remove_dir_all(&base).ok();
     }
 
     #[test]

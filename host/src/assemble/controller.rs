@@ -195,7 +195,9 @@ impl Controller for AssemblyController {
                 _ => false,
             };
             if milestone && self.log_milestones {
-                tracing::info!(t = format!("{:.1}", e.t), event = %serde_json::to_string(&e.kind).unwrap_or_default(), "assembly");
+                if let Some(text) = crate::replay::words::describe_event(&e.kind) {
+                    tracing::info!("{:.1} s: {text}", e.t);
+                }
             }
         }
         for e in &tick.events {
@@ -370,5 +372,9 @@ impl Controller for AssemblyController {
 
     fn hand_requests(&mut self) -> Vec<HandRequest> {
         std::mem::take(&mut self.hand)
+    }
+
+    fn progress(&self) -> Option<crate::replay::Progress> {
+        Some(crate::replay::Progress::of_runner(&self.runner))
     }
 }

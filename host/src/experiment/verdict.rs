@@ -252,7 +252,7 @@ impl Samples {
 }
 
 /// Run `ep` and judge it. With `folder`, a run folder is written there (scenario, events,
-/// trajectories, the outcome) for `--replay`.
+/// ground truth, the outcome, `run.mcap`, the replay page and pictures) for `--replay`.
 pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
     let wall = Instant::now();
     let fail = |failure: Failure, detail: String| Outcome {
@@ -298,24 +298,35 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
     let mut samples = Samples::default();
     let mut traces: BTreeMap<RobotId, Vec<TruthRecord>> = BTreeMap::new();
     let record = folder.is_some();
-    let run = ls.run(&mut ctl, ep.run_limit_s(), |w, t| {
-        samples.take(w, t);
-        if record
-            && traces
-                .values()
-                .next()
-                .is_none_or(|tr| tr.last().is_none_or(|l| t - l.t >= 0.1))
-        {
-            for r in w.ground_truth().robots {
-                traces.entry(r.id).or_default().push(TruthRecord::of(t, &r));
+    // A run written to a folder is also recorded (`run.mcap`, for the replay page).
+    let recorder = record.then(|| crate::record::Recorder::new(&sim));
+    let mut run_it = || {
+        ls.run(&mut ctl, ep.run_limit_s(), |w, t| {
+            samples.take(w, t);
+            if record
+                && traces
+                    .values()
+                    .next()
+                    .is_none_or(|tr| tr.last().is_none_or(|l| t - l.t >= 0.1))
+            {
+                for r in w.ground_truth().robots {
+                    traces.entry(r.id).or_default().push(TruthRecord::of(t, &r));
+                }
             }
+        })
+    };
+    let (run, recorder) = match recorder {
+        Some(rec) => {
+            let (run, rec) = crate::record::recording(rec, run_it);
+            (run, Some(rec))
         }
-    });
+        None => (run_it(), None),
+    };
     let truth = ls.world.ground_truth();
     let mut out = judge(ep, &ctl, &run, &truth, &samples);
     out.wall_s = wall.elapsed().as_secs_f64();
     if let Some(base) = folder {
-        if let Err(e) = write_folder(base, ep, &ctl.inner, &out, traces) {
+        if let Err(e) = write_folder(base, ep, &ctl.inner, &out, traces, recorder) {
             out.detail
                 .push_str(&format!(" (run folder not written: {e:#})"));
         }
@@ -329,6 +340,7 @@ fn write_folder(
     ctl: &AssemblyController,
     out: &Outcome,
     traces: BTreeMap<RobotId, Vec<TruthRecord>>,
+    recorder: Option<crate::record::Recorder>,
 ) -> anyhow::Result<()> {
     let mut f = RunFolder::create(base, &format!("episode-{}-{}", ep.seed, ep.profile.name()))?;
     std::fs::write(f.dir().join("scenario.toml"), ep.scenario_text())?;
@@ -341,15 +353,19 @@ fn write_folder(
             f.telemetry(s)?;
         }
     }
-    for (id, tr) in traces {
-        f.traces.entry(id).or_default().actual = tr
-            .into_iter()
-            .map(|s| (s.t, s.truth[0], s.truth[1]))
-            .collect();
-    }
     f.write_json("outcome.json", out)?;
     f.finish()?;
-    eprintln!("run folder: {}", f.dir().display());
+    if let Some(mut rec) = recorder {
+        rec.host_events(&ctl.events, &ctl.gate_stops);
+        rec.write(&f.dir().join(crate::record::RUN_MCAP))?;
+    }
+    let w = crate::replay::write(f.dir())?;
+    eprintln!(
+        "run folder: {}\nreplay: {}\npictures: {}",
+        f.dir().display(),
+        w.page.display(),
+        w.picture.display()
+    );
     Ok(())
 }
 
