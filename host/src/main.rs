@@ -127,15 +127,6 @@ enum Cmd {
         /// The assembly demo (the default; accepted for scripts of earlier versions).
         #[arg(long, hide = true, conflicts_with = "tracking")]
         assembly: bool,
-        /// Print the run's summary as JSON on stdout (the table otherwise).
-        #[arg(long, conflicts_with = "tracking")]
-        json: bool,
-    },
-    /// Write replay.html (a self-contained page that plays the run back in a browser) and
-    /// milestones.svg (footprints at the milestones) into a run folder.
-    Replay {
-        /// Run folder (with run.mcap, or telemetry.jsonl and events.jsonl).
-        folder: PathBuf,
     },
     /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
     /// run an assembly scenario file against a simulated fleet.
@@ -178,9 +169,6 @@ enum Cmd {
         /// Seconds to wait for the listed robots.
         #[arg(long, default_value_t = 5.0)]
         wait: f64,
-        /// Print an assembly run's summary as JSON on stdout (the table otherwise).
-        #[arg(long)]
-        json: bool,
     },
     /// Run a simulated fleet for an external host (until Ctrl-C).
     Sim {
@@ -343,8 +331,7 @@ fn main() -> ExitCode {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,puzzlebot_host=info")),
         )
-        .with_writer(|| puzzlebot_host::replay::progress::LogWriter)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
     let rt = match tokio::runtime::Builder::new_multi_thread()
@@ -375,48 +362,17 @@ async fn run_assembly(
     limit: f64,
     lockstep: bool,
 ) -> anyhow::Result<assemble::AssemblyReport> {
-    let shown = puzzlebot_host::replay::progress::show();
-    let report = if lockstep {
+    if lockstep {
         let runs = runs.to_path_buf();
-        let (report, _mcap) = tokio::task::spawn_blocking(move || {
+        let (report, mcap) = tokio::task::spawn_blocking(move || {
             puzzlebot_host::record::run_scenario_lockstep(scenario, sim, &runs, limit)
         })
         .await??;
-        report
+        eprintln!("recording: {}", mcap.display());
+        Ok(report)
     } else {
-        assemble::run_scenario(scenario, sim, runs, limit, None).await?
-    };
-    drop(shown);
-    Ok(report)
-}
-
-/// The end of an assembly run: replay.html and milestones.svg written into its folder, the
-/// summary on stdout (a table, or JSON with `json`), an error unless the scenario finished.
-fn finish_assembly(report: &assemble::AssemblyReport, json: bool) -> anyhow::Result<()> {
-    use puzzlebot_host::replay;
-    let mut files = Vec::new();
-    let timeline = match replay::write(&report.folder) {
-        Ok(w) => {
-            files.push(("replay".to_string(), w.page));
-            files.push(("pictures".to_string(), w.picture));
-            Some(w.timeline)
-        }
-        Err(e) => {
-            tracing::warn!("no replay page: {e:#}");
-            None
-        }
-    };
-    let mcap = report.folder.join(puzzlebot_host::record::RUN_MCAP);
-    if mcap.is_file() {
-        files.push(("recording".to_string(), mcap));
+        assemble::run_scenario(scenario, sim, runs, limit, None).await
     }
-    let summary = replay::Summary::new(report, timeline.as_ref(), files);
-    if json {
-        println!("{}", serde_json::to_string_pretty(&summary)?);
-    } else {
-        print!("{}", summary.table());
-    }
-    assemble::ensure_finished(report)
 }
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
@@ -425,15 +381,13 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         tracking: false,
         realtime: false,
         assembly: false,
-        json: false,
     }) {
         Cmd::Demo {
             tracking: false,
             realtime,
-            json,
             ..
         } => {
-            eprintln!(
+            println!(
                 "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals ({})",
                 if realtime {
                     "over loopback UDP in real time"
@@ -449,8 +403,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             )?;
             let report =
                 run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
-            eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
-            finish_assembly(&report, json)?;
+            print!("{}", assemble::describe(&report));
+            assemble::ensure_finished(&report)?;
+            println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
         }
         Cmd::Run {
             scenario: Some(path),
@@ -460,7 +415,6 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             limit,
             lockstep,
-            json,
             ..
         } => {
             let params = puzzlebot_params::FleetParams::default();
@@ -470,11 +424,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 None => assemble::scattered_fleet(robots, pilots, seed),
             };
             let report = run_assembly(scenario, sim, &runs, limit, lockstep).await?;
-            finish_assembly(&report, json)?;
-        }
-        Cmd::Replay { folder } => {
-            let w = puzzlebot_host::replay::write(&folder)?;
-            println!("{}\n{}", w.page.display(), w.picture.display());
+            print!("{}", assemble::describe(&report));
+            assemble::ensure_finished(&report)?;
         }
         Cmd::Experiment {
             command: ExperimentCmd::Coupling { runs: n, json },
