@@ -127,6 +127,15 @@ enum Cmd {
         /// The assembly demo (the default; accepted for scripts of earlier versions).
         #[arg(long, hide = true, conflicts_with = "tracking")]
         assembly: bool,
+        /// Print the run's summary as JSON on stdout (the table otherwise).
+        #[arg(long, conflicts_with = "tracking")]
+        json: bool,
+    },
+    /// Write replay.html (a self-contained page that plays the run back in a browser) and
+    /// milestones.svg (footprints at the milestones) into a run folder.
+    Replay {
+        /// Run folder (with run.mcap, or telemetry.jsonl and events.jsonl).
+        folder: PathBuf,
     },
     /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
     /// run an assembly scenario file against a simulated fleet.
@@ -169,6 +178,9 @@ enum Cmd {
         /// Seconds to wait for the listed robots.
         #[arg(long, default_value_t = 5.0)]
         wait: f64,
+        /// Print an assembly run's summary as JSON on stdout (the table otherwise).
+        #[arg(long)]
+        json: bool,
     },
     /// Run a simulated fleet for an external host (until Ctrl-C).
     Sim {
@@ -228,6 +240,11 @@ enum Cmd {
     Shape {
         #[command(subcommand)]
         command: ShapeCmd,
+    },
+    /// Plans checked by the stability gate before anything moves.
+    Plan {
+        #[command(subcommand)]
+        command: PlanCmd,
     },
     /// Plans checked by the stability gate before anything moves.
     Plan {
@@ -308,6 +325,29 @@ enum PlanCmd {
 }
 
 #[derive(Subcommand)]
+enum PlanCmd {
+    /// Rank shapes (line, meshes), pilot places (front, back) and headings (0-50°) for
+    /// crossing the gap ahead along +x by the gate's margin, and say which can cross.
+    Crossing {
+        /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
+        #[arg(long)]
+        terrain: PathBuf,
+        /// Number of robots.
+        #[arg(long)]
+        robots: usize,
+        /// Number of pilots among them.
+        #[arg(long, default_value_t = 0)]
+        pilots: usize,
+        /// y of the front robot's start (m).
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        start_y: f64,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand)]
 enum ShapeCmd {
     /// Slots, connection pairs, diagonal angle α and best heading (THESIS 5.2.4).
     Info {
@@ -331,7 +371,8 @@ fn main() -> ExitCode {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,puzzlebot_host=info")),
         )
-        .with_writer(std::io::stderr)
+        .with_writer(|| puzzlebot_host::replay::progress::LogWriter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     let cli = Cli::parse();
     let rt = match tokio::runtime::Builder::new_multi_thread()
@@ -362,17 +403,48 @@ async fn run_assembly(
     limit: f64,
     lockstep: bool,
 ) -> anyhow::Result<assemble::AssemblyReport> {
-    if lockstep {
+    let shown = puzzlebot_host::replay::progress::show();
+    let report = if lockstep {
         let runs = runs.to_path_buf();
-        let (report, mcap) = tokio::task::spawn_blocking(move || {
+        let (report, _mcap) = tokio::task::spawn_blocking(move || {
             puzzlebot_host::record::run_scenario_lockstep(scenario, sim, &runs, limit)
         })
         .await??;
-        eprintln!("recording: {}", mcap.display());
-        Ok(report)
+        report
     } else {
-        assemble::run_scenario(scenario, sim, runs, limit, None).await
+        assemble::run_scenario(scenario, sim, runs, limit, None).await?
+    };
+    drop(shown);
+    Ok(report)
+}
+
+/// The end of an assembly run: replay.html and milestones.svg written into its folder, the
+/// summary on stdout (a table, or JSON with `json`), an error unless the scenario finished.
+fn finish_assembly(report: &assemble::AssemblyReport, json: bool) -> anyhow::Result<()> {
+    use puzzlebot_host::replay;
+    let mut files = Vec::new();
+    let timeline = match replay::write(&report.folder) {
+        Ok(w) => {
+            files.push(("replay".to_string(), w.page));
+            files.push(("pictures".to_string(), w.picture));
+            Some(w.timeline)
+        }
+        Err(e) => {
+            tracing::warn!("no replay page: {e:#}");
+            None
+        }
+    };
+    let mcap = report.folder.join(puzzlebot_host::record::RUN_MCAP);
+    if mcap.is_file() {
+        files.push(("recording".to_string(), mcap));
     }
+    let summary = replay::Summary::new(report, timeline.as_ref(), files);
+    if json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        print!("{}", summary.table());
+    }
+    assemble::ensure_finished(report)
 }
 
 async fn run(cli: Cli) -> anyhow::Result<()> {
@@ -381,13 +453,15 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         tracking: false,
         realtime: false,
         assembly: false,
+        json: false,
     }) {
         Cmd::Demo {
             tracking: false,
             realtime,
+            json,
             ..
         } => {
-            println!(
+            eprintln!(
                 "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals ({})",
                 if realtime {
                     "over loopback UDP in real time"
@@ -403,9 +477,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             )?;
             let report =
                 run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
-            print!("{}", assemble::describe(&report));
-            assemble::ensure_finished(&report)?;
-            println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+            eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
+            finish_assembly(&report, json)?;
         }
         Cmd::Run {
             scenario: Some(path),
@@ -415,6 +488,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             limit,
             lockstep,
+            json,
             ..
         } => {
             let params = puzzlebot_params::FleetParams::default();
@@ -424,8 +498,11 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 None => assemble::scattered_fleet(robots, pilots, seed),
             };
             let report = run_assembly(scenario, sim, &runs, limit, lockstep).await?;
-            print!("{}", assemble::describe(&report));
-            assemble::ensure_finished(&report)?;
+            finish_assembly(&report, json)?;
+        }
+        Cmd::Replay { folder } => {
+            let w = puzzlebot_host::replay::write(&folder)?;
+            println!("{}\n{}", w.page.display(), w.picture.display());
         }
         Cmd::Experiment {
             command: ExperimentCmd::Coupling { runs: n, json },
@@ -649,6 +726,21 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let report =
                 calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
             print!("{report}");
+        }
+        Cmd::Plan {
+            command:
+                PlanCmd::Crossing {
+                    terrain,
+                    robots,
+                    pilots,
+                    start_y,
+                    json,
+                },
+        } => {
+            let out = puzzlebot_stability::crossing::crossing_command(
+                &terrain, robots, pilots, start_y, json,
+            )?;
+            println!("{}", out.trim_end());
         }
         Cmd::Plan {
             command:
