@@ -78,6 +78,7 @@ enum Command {
     Impair(RobotId, Impairments),
     Place(RobotId, Pose),
     LiftKnobs(Vec<RobotId>),
+    UpdateKey(Option<[u8; 32]>),
 }
 
 struct Shared {
@@ -187,6 +188,11 @@ impl SimFleet {
         lock(&self.shared.commands).push(Command::LiftKnobs(ids.to_vec()));
     }
 
+    /// Make every robot trust firmware updates signed with `key` ([`World::set_update_key`]).
+    pub fn set_update_key(&self, key: Option<[u8; 32]>) {
+        lock(&self.shared.commands).push(Command::UpdateKey(key));
+    }
+
     /// Stop the simulation thread and close the sockets.
     pub fn stop(mut self) {
         self.halt();
@@ -232,6 +238,9 @@ fn run(
                 }
                 Command::LiftKnobs(ids) => {
                     world.lift_knobs(&ids);
+                }
+                Command::UpdateKey(key) => {
+                    world.set_update_key(key);
                 }
             }
         }

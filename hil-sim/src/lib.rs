@@ -42,6 +42,7 @@ pub mod fleet;
 pub mod math;
 pub mod mechanics;
 pub mod mocap;
+pub mod ota;
 pub mod physics3d;
 pub mod radio;
 pub mod rng;

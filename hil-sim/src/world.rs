@@ -14,6 +14,7 @@ use crate::encoder::QuadEncoder;
 use crate::math::{add, in_convex_hull, Pose, V2};
 use crate::mechanics::{Body, Link, LinkEvent, LinkKind, Mechanics};
 use crate::mocap::{Mocap, MocapFrame};
+use crate::ota::SimOta;
 use crate::radio::{Channel, Impairments};
 use crate::rng::Rng;
 use crate::scenario::Scenario;
@@ -224,6 +225,8 @@ struct SimRobot {
     /// jumps and every [`TRIG_REFRESH`] steps).
     trig: [f64; 2],
     trig_age: u32,
+    /// Update slot, installed version and trial (kept across reboots, like flash).
+    ota: SimOta,
 }
 
 /// Steps between exact refreshes of a robot's cached heading sine and cosine.
@@ -326,6 +329,7 @@ impl World {
                 supervision: Supervision::new(0),
                 trig: trig_of(pose.yaw),
                 trig_age: 0,
+                ota: SimOta::new(SIM_FIRMWARE_VERSION),
             };
             if !spec.offline {
                 boot(&mut r, key, 0, ResetReason::PowerOn).map_err(|reason| {
@@ -509,10 +513,15 @@ impl World {
         // 4. Radio in, firmware ticks, radio out.
         let mut buf = [0u8; MAX_DATAGRAM];
         for r in &mut self.robots {
+            let mut restart = None;
             if let Some(fw) = r.fw.as_mut() {
+                let ota = &mut r.ota;
                 r.down.due(t1, |frame| {
                     // Rejections are counted by the firmware itself (LinkStats).
                     let _ = fw.on_datagram(frame, t1);
+                    if let Some(report) = fw.take_update_request().and_then(|q| ota.on_request(q)) {
+                        fw.report_update(report);
+                    }
                 });
                 if t1 >= r.next_tick_us && r.supervision.is_stalled() {
                     // A stalled control task: no tick, the PWM keeps its last duties.
@@ -529,9 +538,21 @@ impl World {
                     while let Some(n) = fw.poll_transmit(t1, &mut buf) {
                         r.up.send(t1, &buf[..n], &r.impairments);
                     }
+                    restart = r.ota.after_tick(t1, fw.is_established());
                 }
             } else {
                 r.down.clear();
+            }
+            // An installed update boots, or an unconfirmed one rolls back.
+            if let Some(reason) = restart {
+                r.down.clear();
+                if boot(r, &self.key, t1, reason).is_ok() {
+                    let kind = EventKind::Booted {
+                        id: r.id,
+                        boot: r.boots,
+                    };
+                    self.events.push(SimEvent { t_us: t1, kind });
+                }
             }
             // Only a running chip has a watchdog (an offline robot is switched off).
             let running = r.fw.is_some();
@@ -953,6 +974,19 @@ impl World {
         }
     }
 
+    /// Trust firmware update packages signed with `key` on every robot (the update key of
+    /// their provisioning records; `None`: they refuse updates).
+    pub fn set_update_key(&mut self, key: Option<[u8; 32]>) {
+        for r in &mut self.robots {
+            r.ota.set_key(key);
+        }
+    }
+
+    /// The firmware version robot `id` runs (None for an unknown id).
+    pub fn firmware_version(&self, id: RobotId) -> Option<FirmwareVersion> {
+        self.index(id).map(|i| self.robots[i].ota.version())
+    }
+
     /// True when robot `id`'s firmware is in a driving mode (speed or raw duty).
     pub fn is_driving(&self, id: RobotId) -> bool {
         self.firmware(id)
@@ -969,10 +1003,11 @@ fn boot(r: &mut SimRobot, key: &FleetKey, now_us: u64, reason: ResetReason) -> R
         r.kind,
         Some(key.robot_key(r.id)),
         r.params.firmware,
-        SIM_FIRMWARE_VERSION,
+        r.ota.version(),
         nonces,
     )
     .map_err(|e| e.to_string())?;
+    r.ota.on_boot(now_us);
     fw.set_reset_reason(reason);
     r.supervision.rebooted(fw.period_us());
     r.boots += 1;

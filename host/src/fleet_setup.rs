@@ -70,12 +70,14 @@ fn config_text() -> String {
     )
 }
 
-/// Write `fleet.toml` and a fresh `fleet.key` (readable by the owner only) into `dir`,
-/// creating it. Refuses when either file exists; removes the key again when the config
-/// cannot be written. Returns both paths.
+/// Write `fleet.toml`, a fresh `fleet.key` and a fresh update signing key `update.key`
+/// (both readable by the owner only) into `dir`, creating it. Refuses when any of them
+/// exists; removes the keys again when the config cannot be written. Returns the config
+/// and fleet key paths.
 pub fn init(dir: &Path) -> Result<(PathBuf, PathBuf), SetupError> {
     let (config, key) = (dir.join(CONFIG_FILE), dir.join(KEY_FILE));
-    for p in [&config, &key] {
+    let sign = dir.join(crate::fleet_update::SIGN_FILE);
+    for p in [&config, &key, &sign] {
         if p.exists() {
             return Err(SetupError::Exists(p.clone()));
         }
@@ -88,11 +90,27 @@ pub fn init(dir: &Path) -> Result<(PathBuf, PathBuf), SetupError> {
     rand::fill(&mut bytes);
     let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
     write_new(&key, &format!("{hex}\n"), 0o600)?;
-    if let Err(e) = write_new(&config, &config_text(), 0o644) {
+    let written = write_new(&sign, &update_key_text(), 0o600)
+        .and_then(|_| write_new(&config, &config_text(), 0o644));
+    if let Err(e) = written {
         let _ = std::fs::remove_file(&key);
+        let _ = std::fs::remove_file(&sign);
         return Err(e);
     }
     Ok((config, key))
+}
+
+fn update_key_text() -> String {
+    format!("{}\n", crate::fleet_update::fresh_key_hex())
+}
+
+/// Give the fleet config `fleet` an update signing key (`update.key` beside it, owner-only)
+/// if it has none; a fleet set up before updates existed needs this once. Returns its path.
+pub fn add_update_key(fleet: &Path) -> Result<PathBuf, SetupError> {
+    Fleet::load(fleet)?;
+    let path = crate::fleet_update::key_path(fleet);
+    write_new(&path, &update_key_text(), 0o600)?;
+    Ok(path)
 }
 
 /// Create `path` (never replacing a file) with `mode` where the platform has modes, and
@@ -260,6 +278,9 @@ mod tests {
             let mode = std::fs::metadata(&key).unwrap().permissions().mode() & 0o777;
             assert_eq!(mode, 0o600, "the key is readable by its owner only");
         }
+        assert!(crate::fleet_update::verifying_key(&config)
+            .unwrap()
+            .is_some());
         let before = std::fs::read_to_string(&key).unwrap();
         let err = init(&d).unwrap_err().to_string();
         assert!(
@@ -283,7 +304,21 @@ mod tests {
         let err = init(&d).unwrap_err().to_string();
         assert!(err.contains("fleet.key: already exists"), "{err}");
         assert!(!d.join(CONFIG_FILE).exists(), "nothing half-written");
+        assert!(!d.join(crate::fleet_update::SIGN_FILE).exists());
         assert_eq!(std::fs::read_to_string(d.join(KEY_FILE)).unwrap(), "old");
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn a_fleet_without_an_update_key_gets_one_once() {
+        let d = scratch("update-key");
+        let (config, _) = init(&d).unwrap();
+        let sign = crate::fleet_update::key_path(&config);
+        std::fs::remove_file(&sign).unwrap();
+        assert_eq!(add_update_key(&config).unwrap(), sign);
+        assert!(crate::fleet_update::read_signing_key(&config).is_ok());
+        let err = add_update_key(&config).unwrap_err().to_string();
+        assert!(err.contains("update.key: already exists"), "{err}");
         let _ = std::fs::remove_dir_all(&d);
     }
 

@@ -12,6 +12,7 @@ pub mod drive;
 pub mod experiment;
 pub mod fleet_provision;
 pub mod fleet_setup;
+pub mod fleet_update;
 pub mod link;
 pub mod lockstep;
 pub mod pose;

@@ -17,7 +17,7 @@ use puzzlebot_protocol::{
     messages::{Announce, FirmwareVersion, RobotId, RobotKind, Telemetry},
     peek_header,
     session::HostReceived,
-    FleetKey, HostMsg, HostSession, Nonce, Rejection, RobotMsg, Stream, MAX_DATAGRAM,
+    FleetKey, HostMsg, HostSession, Nonce, Rejection, RobotMsg, Stream, UpdateStatus, MAX_DATAGRAM,
 };
 use serde::Serialize;
 use tokio::net::UdpSocket;
@@ -169,6 +169,7 @@ struct RobotLink {
     next_ping: Option<Instant>,
     ping_seq: u32,
     stats: LinkStats,
+    update: Option<UpdateStatus>,
 }
 
 impl RobotLink {
@@ -189,6 +190,7 @@ impl RobotLink {
             next_ping: None,
             ping_seq: 0,
             stats: LinkStats::default(),
+            update: None,
         }
     }
 }
@@ -317,6 +319,15 @@ impl FleetLink {
             Some((buf, n, addr)) => self.inner.socket.send_to(&buf[..n], addr).await.is_ok(),
             None => false,
         }
+    }
+
+    /// The latest over-the-air update report of robot `id`, taken (each report is seen once).
+    pub fn take_update_status(&self, id: RobotId) -> Option<UpdateStatus> {
+        self.inner
+            .lock()
+            .robots
+            .get_mut(&id)
+            .and_then(|r| r.update.take())
     }
 
     /// Command every known robot to stop (streamed), and send the stop at once.
@@ -610,6 +621,7 @@ fn handle(
                             tracing::warn!(robot = id, ?why, "robot refused parameters");
                         }
                     }
+                    RobotMsg::UpdateStatus(u) => r.update = Some(u),
                     RobotMsg::Announce(_) => {}
                 }
                 None

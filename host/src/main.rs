@@ -100,6 +100,32 @@ enum FleetCmd {
         #[arg(long, default_value = "fleet.toml")]
         fleet: PathBuf,
     },
+    /// Sign a firmware image with the fleet's update key and send it to the robots over
+    /// their sessions; each installs it, restarts and announces the new version (or refuses
+    /// it and keeps running its current firmware).
+    Update {
+        /// Firmware image (the .bin espflash save-image writes).
+        #[arg(long)]
+        image: PathBuf,
+        /// Version of the image, X.Y.Z; default: from its ESP-IDF app descriptor.
+        #[arg(long)]
+        version: Option<String>,
+        /// Robots to update (repeatable); default: every listed robot.
+        #[arg(long = "id")]
+        ids: Vec<u16>,
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
+        /// Give up on a robot silent for this long (s).
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+    },
+    /// Create the update signing key (update.key) of a fleet set up without one.
+    UpdateKey {
+        /// Fleet config (TOML).
+        #[arg(long, default_value = "fleet.toml")]
+        fleet: PathBuf,
+    },
     /// Print the key robot ID is provisioned with (64 hex characters; see firmware/README.md).
     RobotKey {
         /// Robot id.
@@ -612,6 +638,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     pace: Pace::RealTime,
                 },
             )?;
+            // The robots trust updates signed with the fleet's update key, as provisioned.
+            sim.set_update_key(puzzlebot_host::fleet_update::verifying_key(&fleet.path)?);
             for (id, addr) in sim.robot_addrs() {
                 println!("robot {id} on {addr}");
             }
@@ -672,7 +700,14 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     password: prov::read_password(password_file.as_deref())?,
                     host,
                 };
-                let blob = prov::record(&fleet, &req, None)?;
+                let update_key = puzzlebot_host::fleet_update::verifying_key(&fleet)?;
+                if update_key.is_none() {
+                    eprintln!(
+                        "note: {} has no update key; this robot will refuse over-the-air updates",
+                        fleet.display()
+                    );
+                }
+                let blob = prov::record(&fleet, &req, update_key)?;
                 let out = out.unwrap_or_else(|| PathBuf::from(format!("robot-{id}.bin")));
                 prov::write_blob(&out, &blob)?;
                 println!(
@@ -682,6 +717,42 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                     prov::PARTITION_OFFSET,
                     out.display()
                 );
+            }
+            FleetCmd::UpdateKey { fleet } => {
+                let path = puzzlebot_host::fleet_setup::add_update_key(&fleet)?;
+                println!(
+                    "wrote {} (owner-only); re-provision the robots to trust it",
+                    path.display()
+                );
+            }
+            FleetCmd::Update {
+                image,
+                version,
+                ids,
+                fleet,
+                seconds,
+            } => {
+                let fleet = Fleet::load(&fleet)?;
+                let patience = Duration::from_secs_f64(seconds.max(1.0));
+                let ids = if ids.is_empty() {
+                    fleet.config.robots.iter().map(|r| r.id).collect()
+                } else {
+                    ids
+                };
+                let (link, _poses) = app::start_host(&fleet).await?;
+                let done = puzzlebot_host::fleet_update::run(
+                    &link,
+                    &fleet.path,
+                    &image,
+                    version.as_deref(),
+                    &ids,
+                    patience,
+                )
+                .await;
+                link.shutdown().await;
+                for line in done? {
+                    println!("{line}");
+                }
             }
             FleetCmd::RobotKey { id, fleet } => {
                 println!(

@@ -25,6 +25,7 @@ pub mod pose;
 pub mod reject;
 pub mod replay;
 pub mod session;
+pub mod update;
 
 pub use crypto::{Authenticator, FleetKey, MacKey, Nonce, RobotKey, SessionKey};
 pub use envelope::{open, peek_header, seal, Direction, Header, Stream};
@@ -32,10 +33,12 @@ pub use messages::*;
 pub use reject::{EncodeError, Rejection};
 pub use replay::ReplayWindow;
 pub use session::{HostReceived, HostSession, RobotSession, PENDING_OFFERS};
+pub use update::{UpdateRefusal, UpdateState, UpdateStatus, UPDATE_CHUNK};
 
 /// Protocol version carried in every datagram's first byte. Version 2 added the
-/// announce's `reset_reason`; a frame of any other version is refused as `bad_version`.
-pub const PROTOCOL_VERSION: u8 = 2;
+/// announce's `reset_reason`, version 3 the over-the-air update messages ([`update`]); a
+/// frame of any other version is refused as `bad_version`.
+pub const PROTOCOL_VERSION: u8 = 3;
 /// Size of the fixed header (version, flags, robot id, 48-bit counter).
 pub const HEADER_LEN: usize = 10;
 /// Size of the truncated HMAC-SHA256 tag.

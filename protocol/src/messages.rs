@@ -75,6 +75,8 @@ pub enum RobotMsg {
         /// `None` when applied; the reason otherwise.
         rejected: Option<ParamRejection>,
     },
+    /// Progress of an over-the-air update (answer to `UpdateBegin` / `UpdateChunk`).
+    UpdateStatus(crate::update::UpdateStatus),
 }
 
 /// Robot announce (hello stream).
@@ -191,6 +193,20 @@ pub enum HostMsg {
         seq: u32,
         /// Host send time (µs, host clock) echoed in the pong.
         host_time_us: u64,
+    },
+    /// Start or resume an over-the-air update ([`crate::update`]).
+    UpdateBegin {
+        /// Names the package (first four bytes of its SHA-256, little-endian).
+        transfer: u32,
+        /// Package length (bytes).
+        total_len: u32,
+    },
+    /// Package bytes `offset .. offset + UPDATE_CHUNK` (the last chunk zero-padded).
+    UpdateChunk {
+        /// Byte offset in the package.
+        offset: u32,
+        /// The bytes.
+        data: [u8; crate::update::UPDATE_CHUNK],
     },
 }
 

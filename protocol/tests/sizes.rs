@@ -43,6 +43,8 @@ fn host_name(m: &HostMsg) -> &'static str {
         HostMsg::ClearEmergencyStop => "ClearEmergencyStop",
         HostMsg::SetParams(_) => "SetParams",
         HostMsg::Ping { .. } => "Ping",
+        HostMsg::UpdateBegin { .. } => "UpdateBegin",
+        HostMsg::UpdateChunk { .. } => "UpdateChunk",
     }
 }
 
@@ -52,6 +54,7 @@ fn robot_name(m: &RobotMsg) -> &'static str {
         RobotMsg::Telemetry(_) => "Telemetry",
         RobotMsg::Pong { .. } => "Pong",
         RobotMsg::ParamsReply { .. } => "ParamsReply",
+        RobotMsg::UpdateStatus(_) => "UpdateStatus",
     }
 }
 
@@ -108,6 +111,26 @@ fn host_extremes() -> Vec<(HostMsg, HostMsg)> {
             HostMsg::Ping {
                 seq: u32::MAX,
                 host_time_us: u64::MAX,
+            },
+        ),
+        (
+            HostMsg::UpdateBegin {
+                transfer: 0,
+                total_len: 0,
+            },
+            HostMsg::UpdateBegin {
+                transfer: u32::MAX,
+                total_len: u32::MAX,
+            },
+        ),
+        (
+            HostMsg::UpdateChunk {
+                offset: 0,
+                data: [0; UPDATE_CHUNK],
+            },
+            HostMsg::UpdateChunk {
+                offset: u32::MAX,
+                data: [0xff; UPDATE_CHUNK],
             },
         ),
     ]
@@ -179,6 +202,18 @@ fn robot_extremes() -> Vec<(RobotMsg, RobotMsg)> {
             RobotMsg::ParamsReply {
                 rejected: Some(ParamRejection::TelemetryRateOutOfRange),
             },
+        ),
+        (
+            RobotMsg::UpdateStatus(UpdateStatus {
+                transfer: 0,
+                received: 0,
+                state: UpdateState::Idle,
+            }),
+            RobotMsg::UpdateStatus(UpdateStatus {
+                transfer: u32::MAX,
+                received: u32::MAX,
+                state: UpdateState::Refused(UpdateRefusal::Flash),
+            }),
         ),
     ]
 }
@@ -262,6 +297,11 @@ fn datagram_size_budget() {
     assert_eq!(wheel, 35);
     assert_eq!(tele, 81);
     assert_eq!(largest, 81);
+    assert_eq!(
+        host_bounds("UpdateChunk"),
+        (60, 64),
+        "update chunk at the budget"
+    );
     assert_eq!(HEADER_LEN + TAG_LEN, 26, "envelope overhead");
     let (lo, hi) = robot_bounds("Announce");
     assert_eq!((lo, hi), (49, 49), "announce with its reset reason");

@@ -56,6 +56,7 @@ pub mod pi;
 pub mod provision;
 pub mod robot;
 pub mod safety;
+pub mod update;
 
 pub use drv8833::{Decay, HBridge, MotorCommand, MotorOutputs, PWM_FULL_SCALE};
 pub use encoder::{levels_of, Edge, Encoder, EncoderSnapshot, Step, EDGE_HISTORY};
@@ -69,3 +70,4 @@ pub use safety::{
     on_fault, reset_reason, Fault, FaultMark, HwReset, SafeOutputs, TickSupervisor, Watchdog,
     FAULT_OUTPUTS, WATCHDOG_TIMEOUT_MS,
 };
+pub use update::{Manifest, SlotError, Trial, TrialAction, UpdateRequest, UpdateSlot, Updater};

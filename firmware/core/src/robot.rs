@@ -21,13 +21,14 @@
 use puzzlebot_params::firmware::Firmware;
 use puzzlebot_protocol::{
     flags, EncodeError, FirmwareVersion, HostMsg, Nonce, ParamRejection, Rejection, ResetReason,
-    RobotId, RobotKey, RobotKind, RobotMsg, RobotSession, Telemetry, MAX_DATAGRAM,
+    RobotId, RobotKey, RobotKind, RobotMsg, RobotSession, Telemetry, UpdateStatus, MAX_DATAGRAM,
 };
 
 use crate::drv8833::{Decay, HBridge, MotorCommand, MotorOutputs};
 use crate::encoder::EncoderSnapshot;
 use crate::estimator::SpeedEstimator;
 use crate::pi::WheelController;
+use crate::update::UpdateRequest;
 
 /// Source of fresh, unpredictable handshake nonces (the ESP32-C3 uses its hardware RNG;
 /// the simulator a seeded generator).
@@ -214,6 +215,7 @@ pub struct Robot<N: NonceSource> {
     battery_mv: u16,
     rssi_dbm: i8,
     stats: LinkStats,
+    update_rx: Option<UpdateRequest>,
 }
 
 impl<N: NonceSource> Robot<N> {
@@ -261,6 +263,7 @@ impl<N: NonceSource> Robot<N> {
             battery_mv: 0,
             rssi_dbm: 0,
             stats: LinkStats::default(),
+            update_rx: None,
         })
     }
 
@@ -466,9 +469,33 @@ impl<N: NonceSource> Robot<N> {
             HostMsg::Ping { seq, host_time_us } => {
                 self.queue_reply(RobotMsg::Pong { seq, host_time_us });
             }
+            HostMsg::UpdateBegin {
+                transfer,
+                total_len,
+            } => {
+                self.update_rx = Some(UpdateRequest::Begin {
+                    transfer,
+                    total_len,
+                })
+            }
+            HostMsg::UpdateChunk { offset, data } => {
+                self.update_rx = Some(UpdateRequest::Chunk { offset, data })
+            }
             // Welcomes arrive on the hello stream and are handled in `on_datagram`.
             HostMsg::Welcome { .. } => {}
         }
+    }
+
+    /// The update message of the last datagram, if it carried one: hand it to the
+    /// [`crate::update::Updater`] (which owns the flash slot) right after
+    /// [`Robot::on_datagram`], and its report to [`Robot::report_update`].
+    pub fn take_update_request(&mut self) -> Option<UpdateRequest> {
+        self.update_rx.take()
+    }
+
+    /// Send an update report to the host (with the next transmission).
+    pub fn report_update(&mut self, status: UpdateStatus) {
+        self.queue_reply(RobotMsg::UpdateStatus(status));
     }
 
     fn queue_reply(&mut self, msg: RobotMsg) {

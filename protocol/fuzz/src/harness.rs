@@ -93,6 +93,14 @@ pub fn host_samples() -> Vec<HostMsg> {
             seq: u32::MAX,
             host_time_us: u64::MAX,
         },
+        HostMsg::UpdateBegin {
+            transfer: 0xdead_beef,
+            total_len: 1_966_080,
+        },
+        HostMsg::UpdateChunk {
+            offset: u32::MAX,
+            data: [0xa5; puzzlebot_protocol::UPDATE_CHUNK],
+        },
     ]
 }
 
@@ -106,7 +114,7 @@ pub fn robot_samples() -> Vec<RobotMsg> {
                 minor: 2,
                 patch: 3,
             },
-            protocol_version: 2,
+            protocol_version: puzzlebot_protocol::PROTOCOL_VERSION,
             robot_nonce: [9; 16],
             reset_reason: ResetReason::Panic,
         }),
@@ -129,6 +137,13 @@ pub fn robot_samples() -> Vec<RobotMsg> {
         RobotMsg::ParamsReply {
             rejected: Some(ParamRejection::TelemetryRateOutOfRange),
         },
+        RobotMsg::UpdateStatus(puzzlebot_protocol::UpdateStatus {
+            transfer: 7,
+            received: 4096,
+            state: puzzlebot_protocol::UpdateState::Refused(
+                puzzlebot_protocol::UpdateRefusal::NotNewer,
+            ),
+        }),
     ]
 }
 

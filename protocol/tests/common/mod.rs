@@ -158,6 +158,12 @@ pub fn host_msg() -> impl Strategy<Value = HostMsg> {
         param_set().prop_map(HostMsg::SetParams),
         (any::<u32>(), any::<u64>())
             .prop_map(|(seq, host_time_us)| HostMsg::Ping { seq, host_time_us }),
+        (any::<u32>(), any::<u32>()).prop_map(|(transfer, total_len)| HostMsg::UpdateBegin {
+            transfer,
+            total_len
+        }),
+        (any::<u32>(), any::<[u8; UPDATE_CHUNK]>())
+            .prop_map(|(offset, data)| HostMsg::UpdateChunk { offset, data }),
     ]
 }
 
@@ -256,6 +262,33 @@ pub fn robot_msg() -> impl Strategy<Value = RobotMsg> {
         (any::<u32>(), any::<u64>())
             .prop_map(|(seq, host_time_us)| RobotMsg::Pong { seq, host_time_us }),
         param_reply().prop_map(|rejected| RobotMsg::ParamsReply { rejected }),
+        (any::<u32>(), any::<u32>(), update_state()).prop_map(|(transfer, received, state)| {
+            RobotMsg::UpdateStatus(UpdateStatus {
+                transfer,
+                received,
+                state,
+            })
+        }),
+    ]
+}
+
+/// Every update state, with every refusal.
+pub fn update_state() -> impl Strategy<Value = UpdateState> {
+    use UpdateRefusal::*;
+    prop_oneof![
+        Just(UpdateState::Idle),
+        Just(UpdateState::Receiving),
+        Just(UpdateState::Installed),
+        prop::sample::select(vec![
+            NoUpdateKey,
+            BadPackage,
+            TooLarge,
+            BadSignature,
+            NotNewer,
+            Corrupted,
+            Flash
+        ])
+        .prop_map(UpdateState::Refused),
     ]
 }
 
