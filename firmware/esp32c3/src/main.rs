@@ -12,6 +12,7 @@ mod encoders;
 mod fault;
 mod led;
 mod motors;
+mod ota;
 mod pins;
 mod provision;
 
@@ -119,6 +120,7 @@ async fn main(spawner: Spawner) -> ! {
     // `black_box`: keep the Wi-Fi path in unprovisioned (CI) builds too, so CI links and
     // measures the same image a provisioned robot runs.
     let prov = core::hint::black_box(provision::load(&mut flash));
+    let update_key = prov.as_ref().ok().and_then(|p| p.update_key);
     let (id, kind, key, net) = match prov {
         Err(why) => {
             let code = if why.is_bad() {
@@ -154,8 +156,12 @@ async fn main(spawner: Spawner) -> ! {
         "PuzzleBot {id} ({kind:?}) firmware {VERSION:?} running (reset: {})",
         reset_reason.name()
     );
+    let ota = ota::EspOta::new(flash, update_key, VERSION, encoders::now_us());
+    if ota.is_none() {
+        log::warn!("no OTA partitions: over-the-air updates are refused");
+    }
     watchdogs.start_main(peripherals.TIMG1);
-    control_loop(robot, motors, battery, net, watchdogs).await
+    control_loop(robot, motors, battery, net, watchdogs, ota).await
 }
 
 /// A permanent halt: motors at the fault state, watchdogs off (resetting would not help),
@@ -343,6 +349,7 @@ async fn control_loop<N: NonceSource>(
     mut battery: battery::Battery,
     net: Option<Net>,
     mut watchdogs: fault::Watchdogs,
+    mut ota: Option<ota::EspOta>,
 ) -> ! {
     let mut rx_meta = [PacketMetadata::EMPTY; 4];
     let mut tx_meta = [PacketMetadata::EMPTY; 4];
@@ -384,10 +391,23 @@ async fn control_loop<N: NonceSource>(
                 let out = robot.tick(now, &sensors);
                 motors.apply(&out);
                 supervisor.on_tick(now, &mut watchdogs);
+                if ota
+                    .as_mut()
+                    .is_some_and(|o| o.after_tick(now, robot.is_established()))
+                {
+                    log::info!("restarting into the other firmware slot");
+                    FaultPins.make_safe();
+                    esp_hal::system::software_reset();
+                }
             }
             Either::Second(Some(n)) => {
                 // Oversized datagrams arrive truncated to MAX_DATAGRAM + 1 and are rejected.
                 let _ = robot.on_datagram(&rx[..n], encoders::now_us());
+                if let Some(req) = robot.take_update_request() {
+                    if let Some(report) = ota.as_mut().and_then(|o| o.handle(req)) {
+                        robot.report_update(report);
+                    }
+                }
             }
             Either::Second(None) => {}
         }
