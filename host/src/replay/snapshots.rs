@@ -17,8 +17,12 @@ pub const MILESTONES_SVG: &str = "milestones.svg";
 const PANEL_W: f64 = 420.0;
 /// Panels per row.
 const COLUMNS: usize = 3;
-/// Margin around the arena (m).
-const ARENA_PAD: f64 = 0.08;
+/// Panel height (px).
+const PANEL_H: f64 = 300.0;
+/// Margin around the robots of a panel (m).
+const ZOOM_PAD: f64 = 0.1;
+/// Smallest width and height a panel shows (m).
+const MIN_SPAN: f64 = 0.3;
 /// Anchor head drawn with this radius (m).
 const HEAD_R: f64 = 0.004;
 
@@ -61,36 +65,36 @@ fn world(pose: [f64; 3], b: [f64; 2]) -> [f64; 2] {
     [pose[0] + c * b[0] - s * b[1], pose[1] + s * b[0] + c * b[1]]
 }
 
-/// Arena bounds (x0, x1, y0, y1) of every pose and platform, padded.
-fn arena(tl: &Timeline) -> (f64, f64, f64, f64) {
+/// The frame of a panel at `(left, top)` that shows every robot of `s` (padded by
+/// [`ZOOM_PAD`], at least [`MIN_SPAN`] wide and high) as large as the panel allows.
+fn zoom(s: &Sample, left: f64, top: f64) -> Frame {
     let mut b = (
         f64::INFINITY,
         f64::NEG_INFINITY,
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    let pts = tl
-        .samples
-        .iter()
-        .flat_map(|s| s.poses.values().map(|p| [p[0], p[1]]))
-        .chain(
-            tl.terrain
-                .platforms
-                .iter()
-                .flat_map(|p| p.polygon.iter().copied()),
-        );
-    for p in pts.filter(|p| p[0].is_finite() && p[1].is_finite()) {
+    for p in s
+        .poses
+        .values()
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+    {
         b = (b.0.min(p[0]), b.1.max(p[0]), b.2.min(p[1]), b.3.max(p[1]));
     }
     if !b.0.is_finite() {
-        return (-0.5, 0.5, -0.5, 0.5);
+        b = (0.0, 0.0, 0.0, 0.0);
     }
-    (
-        b.0 - ARENA_PAD,
-        b.1 + ARENA_PAD,
-        b.2 - ARENA_PAD,
-        b.3 + ARENA_PAD,
-    )
+    let (cx, cy) = ((b.0 + b.1) / 2.0, (b.2 + b.3) / 2.0);
+    let w = (b.1 - b.0 + 2.0 * ZOOM_PAD).max(MIN_SPAN);
+    let h = (b.3 - b.2 + 2.0 * ZOOM_PAD).max(MIN_SPAN);
+    let scale = (PANEL_W / w).min(PANEL_H / h);
+    Frame {
+        x0: cx - PANEL_W / 2.0 / scale,
+        y1: cy + PANEL_H / 2.0 / scale,
+        scale,
+        left,
+        top,
+    }
 }
 
 /// One robot's footprint at `pose`: body, heading mark, anchor with its head coloured by the
@@ -241,46 +245,53 @@ fn panel(out: &mut String, tl: &Timeline, f: &Frame, size: (f64, f64), m: &Miles
 /// The milestone picture of `tl` titled `title` (SVG text).
 pub fn svg(tl: &Timeline, title: &str) -> String {
     let marks = milestones(tl);
-    let (x0, x1, y0, y1) = arena(tl);
-    let scale = PANEL_W / (x1 - x0);
-    let panel_h = (y1 - y0) * scale;
     let cols = marks.len().clamp(1, COLUMNS);
     let rows = marks.len().div_ceil(COLUMNS).max(1);
     let gap = 10.0;
     let head = 34.0;
     let foot = 26.0;
     let width = cols as f64 * (PANEL_W + gap) + gap;
-    let height = head + rows as f64 * (panel_h + gap) + foot;
+    let height = head + rows as f64 * (PANEL_H + gap) + foot;
     let mut out = format!(
         r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif">"##
     );
     let _ = write!(
         out,
-        r##"<rect width="100%" height="100%" fill="#fafafa"/><text x="{gap}" y="22" font-size="16" font-weight="bold">{} — footprints at the milestones (bar: 10 cm)</text>"##,
+        r##"<rect width="100%" height="100%" fill="#fafafa"/><text x="{gap}" y="22" font-size="16" font-weight="bold">{} — footprints at the milestones</text>"##,
         super::page_escape(title)
     );
     for (i, m) in marks.iter().enumerate() {
-        let f = Frame {
-            x0,
-            y1,
-            scale,
-            left: gap + (i % COLUMNS) as f64 * (PANEL_W + gap),
-            top: head + (i / COLUMNS) as f64 * (panel_h + gap),
-        };
         let s = &tl.samples[tl.index_at(m.t)];
-        panel(&mut out, tl, &f, (PANEL_W, panel_h), m, s);
-        let bar = 0.1 * scale;
-        let (bx, by) = (f.left + PANEL_W - bar - 10.0, f.top + panel_h - 10.0);
+        let f = zoom(
+            s,
+            gap + (i % COLUMNS) as f64 * (PANEL_W + gap),
+            head + (i / COLUMNS) as f64 * (PANEL_H + gap),
+        );
         let _ = write!(
             out,
-            r##"<line x1="{bx:.1}" y1="{by:.1}" x2="{:.1}" y2="{by:.1}" stroke="#263238" stroke-width="2"/>"##,
-            bx + bar
+            r##"<clipPath id="panel{i}"><rect x="{:.1}" y="{:.1}" width="{PANEL_W}" height="{PANEL_H}"/></clipPath><g clip-path="url(#panel{i})">"##,
+            f.left, f.top
+        );
+        panel(&mut out, tl, &f, (PANEL_W, PANEL_H), m, s);
+        let bar = 0.1 * f.scale;
+        let (bx, by) = (f.left + PANEL_W - bar - 10.0, f.top + PANEL_H - 10.0);
+        let _ = write!(
+            out,
+            r##"<line x1="{bx:.1}" y1="{by:.1}" x2="{:.1}" y2="{by:.1}" stroke="#263238" stroke-width="2"/><text x="{:.1}" y="{:.1}" font-size="11" text-anchor="middle">10 cm</text></g>"##,
+            bx + bar,
+            bx + bar / 2.0,
+            by - 4.0
         );
     }
+    let dot = |c: &str| format!(r##"<tspan fill="{c}">●</tspan>"##);
     let _ = write!(
         out,
-        r##"<text x="{gap}" y="{:.0}" font-size="12">pilot <tspan fill="{PILOT}">■</tspan>  non-pilot <tspan fill="{NON_PILOT}">■</tspan>  anchor head: free ● grey, inserting ● orange, coupled ● green, releasing ● red  coupled: anchor <tspan fill="{ANCHOR_LINK}">━</tspan> knob <tspan fill="{KNOB_LINK}">━</tspan>  paths faint</text></svg>"##,
-        height - 9.0
+        r##"<text x="{gap}" y="{:.0}" font-size="12">pilot <tspan fill="{PILOT}">■</tspan>  non-pilot <tspan fill="{NON_PILOT}">■</tspan>   anchor head: {} free {} inserting {} coupled {} releasing   coupled: <tspan fill="{ANCHOR_LINK}">━</tspan> anchor <tspan fill="{KNOB_LINK}">━</tspan> knob   paths faint</text></svg>"##,
+        height - 9.0,
+        dot("#9e9e9e"),
+        dot("#fb8c00"),
+        dot("#2e7d32"),
+        dot("#d32f2f")
     );
     out
 }

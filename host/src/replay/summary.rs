@@ -186,7 +186,7 @@ impl Summary {
     pub fn table(&self) -> String {
         let mut s = String::new();
         let _ = writeln!(s, "run        {}", self.folder.display());
-        let _ = writeln!(s, "result     {} · {:.1} s", self.result, self.run_s);
+        let _ = writeln!(s, "result     {} ({:.1} s)", self.result, self.run_s);
         let formed = match (self.formed_s, self.pairs_planned) {
             (Some(t), Some(n)) => format!("complete at {t:.1} s · {n} pairs"),
             (Some(t), None) => format!("complete at {t:.1} s"),
@@ -202,7 +202,7 @@ impl Summary {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        let _ = writeln!(s, "at the end {coupled} coupled");
+        let _ = writeln!(s, "coupled    {coupled} at the end");
         if self.gate_stops > 0 || self.mpc_failures > 0 {
             let _ = writeln!(
                 s,
@@ -298,7 +298,7 @@ mod tests {
         let t = s.table();
         assert!(t.contains("complete at 12.8 s · 1 pairs"), "{t}");
         assert!(t.contains("form a line    0.0 s  12.8 s  done"), "{t}");
-        assert!(t.contains("at the end 2–1 coupled\n"), "{t}");
+        assert!(t.contains("coupled    2–1 at the end\n"), "{t}");
         assert!(t.contains("replay     runs/x/replay.html"), "{t}");
         assert!(!t.contains("12.799"), "{t}");
         let j = serde_json::to_string(&s).unwrap();
