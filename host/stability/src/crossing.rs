@@ -71,6 +71,9 @@ pub struct Candidate {
     pub pilot_robots: Vec<usize>,
     /// Heading (degrees from the crossing direction).
     pub heading_deg: f64,
+    /// Start of the front robot's centre (world, m): [`formed`] there at the heading gives
+    /// the candidate's assembly.
+    pub start: [f64; 2],
     /// Diagonal angle α of the shape (degrees).
     pub diagonal_deg: f64,
     /// Advance needed to put every robot on the far side (m).
@@ -349,6 +352,7 @@ fn candidate(
         pilots: place,
         pilot_robots: set.to_vec(),
         heading_deg: heading.to_degrees(),
+        start: front,
         diagonal_deg: 0.0,
         required,
         advance,
