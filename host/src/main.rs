@@ -272,11 +272,6 @@ enum Cmd {
         #[command(subcommand)]
         command: PlanCmd,
     },
-    /// Plans checked by the stability gate before anything moves.
-    Plan {
-        #[command(subcommand)]
-        command: PlanCmd,
-    },
 }
 
 #[derive(Subcommand)]
@@ -322,29 +317,6 @@ enum ExperimentCmd {
         #[arg(long, default_value_t = 12)]
         max_robots: usize,
         /// Print the summary as JSON.
-        #[arg(long)]
-        json: bool,
-    },
-}
-
-#[derive(Subcommand)]
-enum PlanCmd {
-    /// Rank shapes (line, meshes), pilot places (front, back) and headings (0-50°) for
-    /// crossing the gap ahead along +x by the gate's margin, and say which can cross.
-    Crossing {
-        /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
-        #[arg(long)]
-        terrain: PathBuf,
-        /// Number of robots.
-        #[arg(long)]
-        robots: usize,
-        /// Number of pilots among them.
-        #[arg(long, default_value_t = 0)]
-        pilots: usize,
-        /// y of the front robot's start (m).
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        start_y: f64,
-        /// Print JSON.
         #[arg(long)]
         json: bool,
     },
@@ -797,21 +769,6 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let report =
                 calibrate::run_cli(robot, fleet.as_ref(), mode, out.as_deref(), &runs).await?;
             print!("{report}");
-        }
-        Cmd::Plan {
-            command:
-                PlanCmd::Crossing {
-                    terrain,
-                    robots,
-                    pilots,
-                    start_y,
-                    json,
-                },
-        } => {
-            let out = puzzlebot_stability::crossing::crossing_command(
-                &terrain, robots, pilots, start_y, json,
-            )?;
-            println!("{}", out.trim_end());
         }
         Cmd::Plan {
             command:
