@@ -711,6 +711,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 } else {
                     ids
                 };
+                // Key and image first: a bad one is reported before any robot is touched.
+                puzzlebot_host::fleet_update::read_signing_key(&fleet.path)?;
+                puzzlebot_host::fleet_update::read_image(&image, version.as_deref())?;
                 let (link, _poses) = app::start_host(&fleet).await?;
                 let done = puzzlebot_host::fleet_update::run(
                     &link,
