@@ -285,7 +285,9 @@ impl Controller for AssemblyController {
             }
         }
         for task in &tick.tasks {
-            if let Role::Dock { v, w, .. } | Role::Hitch { v, w, .. } = task.role {
+            if let Role::Dock { v, w, .. } | Role::Hitch { v, w, .. } | Role::Drive { v, w } =
+                task.role
+            {
                 direct.insert(task.robot, Twist::new(v, w));
             }
         }

@@ -112,8 +112,8 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
             weights: lead,
             heading: 1.0e-3,
         }],
-        // Docking drives directly (see `Role::Dock`).
-        Role::Dock { .. } => Vec::new(),
+        // Docking and the point law drive directly (see `Role::Dock`, `Role::Drive`).
+        Role::Dock { .. } | Role::Drive { .. } => Vec::new(),
     }
 }
 

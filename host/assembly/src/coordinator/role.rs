@@ -92,6 +92,16 @@ pub enum Role {
         /// Angular velocity (rad/s).
         w: f64,
     },
+    /// Drive `(v, w)` directly: a lone robot's turn-then-drive point law
+    /// ([`Coordinator::point_drive`]), whose speeds stay above the wheels' dead-band. Near a
+    /// goal the MPC's point goal asks for a turn too small for the wheels and the robot
+    /// stands still short of it.
+    Drive {
+        /// Linear velocity (m/s).
+        v: f64,
+        /// Angular velocity (rad/s).
+        w: f64,
+    },
 }
 
 /// One robot's task.

@@ -408,26 +408,31 @@ impl Coordinator {
                 }
             }
             Mode::Disperse { goals } => {
+                let d = self.cfg.dock;
                 for (id, goal) in goals {
                     // A non-pilot drives round the others (the MPC has no obstacle terms: two
-                    // robots whose goals lie behind each other would push head-on); a pilot
-                    // drives straight (THESIS 5.4.1). Both of two robots near each other go
-                    // round: letting one of them wait instead finishes fewer dispersals.
-                    let to = if self.kind_of(*id) == RobotKind::NonPilot {
-                        self.disperse_step(*id, goal.xy()).unwrap_or(goal.xy())
-                    } else {
-                        goal.xy()
+                    // robots whose goals lie behind each other would push head-on) by the
+                    // point law, which keeps its wheels above the dead-band to the goal; a
+                    // pilot drives straight (THESIS 5.4.1). Both of two robots near each
+                    // other go round: letting one of them wait instead finishes fewer
+                    // dispersals.
+                    let role = match self.robots.get(id) {
+                        Some(k) if self.kind_of(*id) == RobotKind::NonPilot => {
+                            let here = k.pose;
+                            if (goal.x - here.x).hypot(goal.y - here.y) <= d.capture {
+                                Role::Hold
+                            } else {
+                                let to = self.disperse_step(*id, goal.xy()).unwrap_or(goal.xy());
+                                let (v, w) = self.point_drive(&here, to);
+                                Role::Drive { v, w }
+                            }
+                        }
+                        _ => Role::GoTo {
+                            goal: *goal,
+                            use_yaw: false,
+                        },
                     };
-                    roles.insert(
-                        *id,
-                        (
-                            Role::GoTo {
-                                goal: Pose2::new(to[0], to[1], goal.yaw),
-                                use_yaw: false,
-                            },
-                            Some(*id),
-                        ),
-                    );
+                    roles.insert(*id, (role, Some(*id)));
                 }
             }
         }
@@ -498,39 +503,47 @@ mod tests {
     }
 
     #[test]
-    fn dispersing_robots_that_must_pass_each_other_drive_round_not_through() {
+    fn dispersing_robots_drive_round_each_other_with_commands_the_wheels_make() {
         // Robot 1's goal lies beyond robot 2 and robot 2's beyond robot 1 (the MPC has no
         // obstacle terms: straight at their goals they pushed head-on until the step timed
-        // out); a robot with a free way heads straight for its goal.
+        // out); a robot with a free way heads straight for its goal; a robot whose goal lies
+        // a few centimetres to its side turns on the spot at a rate its wheels make (the
+        // MPC's point goal asked for less than the dead-band there, and it stood still short
+        // of its goal); a robot at its goal holds.
         let mut c = coordinator();
         let robots = vec![
             np(1, 0.0, 0.0, 0.0),
             np(2, 0.08, 0.0, std::f64::consts::PI),
             np(3, 0.0, 0.5, 0.0),
+            np(4, 0.5, 0.0, 0.0),
+            np(5, -0.5, 0.0, 0.0),
         ];
         let goals: BTreeMap<RobotId, Pose2> = [
             (1, Pose2::new(0.2, 0.0, 0.0)),
             (2, Pose2::new(-0.12, 0.0, 0.0)),
             (3, Pose2::new(0.2, 0.5, 0.0)),
+            (4, Pose2::new(0.5, 0.04, 0.0)),
+            (5, Pose2::new(-0.5, 0.005, 0.0)),
         ]
         .into();
         c.set_mode(0.0, Mode::Disperse { goals });
         let tick = c.tick(0.0, &robots);
-        let target = |id| match &role_of(&tick, id) {
-            Role::GoTo { goal, .. } => *goal,
+        let drive = |id| match role_of(&tick, id) {
+            Role::Drive { v, w } => (*v, *w),
             other => panic!("robot {id}: {other:?}"),
         };
+        let d = DockConfig::default();
         for id in [1, 2] {
-            let g = target(id);
+            let (v, w) = drive(id);
             assert!(
-                g.y.abs() > 0.02,
-                "robot {id} heads off the line between them: {g:?}"
+                w.abs() >= d.min_turn && v == 0.0,
+                "robot {id} turns off the line between them first: {v}, {w}"
             );
         }
-        let g3 = target(3);
-        assert!(
-            (g3.x - 0.2).abs() < 1e-12 && (g3.y - 0.5).abs() < 1e-12,
-            "{g3:?}"
-        );
+        let (v3, w3) = drive(3);
+        assert!(v3 >= d.speed && w3.abs() < 1e-9, "{v3}, {w3}");
+        let (v4, w4) = drive(4);
+        assert!(v4 == 0.0 && w4 >= d.min_turn, "{v4}, {w4}");
+        assert_eq!(role_of(&tick, 5), &Role::Hold);
     }
 }
