@@ -16,6 +16,7 @@ pub mod fleet_update;
 pub mod link;
 pub mod lockstep;
 pub mod pose;
+pub mod preflight;
 pub mod record;
 pub mod replay;
 pub mod report;

@@ -163,10 +163,11 @@ enum Cmd {
         /// Run folder (with run.mcap, or telemetry.jsonl and events.jsonl).
         folder: PathBuf,
     },
-    /// Drive the robots of a fleet config through a behaviour (real or simulated robots), or
-    /// run an assembly scenario file against a simulated fleet.
+    /// Run an assembly scenario file on the robots of a fleet config (after the pre-flight
+    /// check) or on a simulated fleet, or drive a fleet's robots through a behaviour.
     Run {
-        /// Assembly scenario file (TOML, host/assembly README); runs on a simulated fleet.
+        /// Assembly scenario file (TOML, host/assembly README); runs on the robots of --fleet,
+        /// or else on a simulated fleet.
         scenario: Option<PathBuf>,
         /// Simulator scenario (robots, terrain, couplings) for an assembly scenario; default:
         /// robots scattered at random (see --robots, --pilots, --seed).
@@ -207,6 +208,13 @@ enum Cmd {
         /// Print an assembly run's summary as JSON on stdout (the table otherwise).
         #[arg(long)]
         json: bool,
+        /// Terrain the fleet's assemblies move over (TOML, `[[platforms]]`), for the
+        /// stability gate of an assembly scenario run with --fleet; default: flat floor.
+        #[arg(long, requires = "fleet")]
+        terrain: Option<PathBuf>,
+        /// Start even when the pre-flight check fails (logged with the reasons).
+        #[arg(long)]
+        force: bool,
     },
     /// Run a simulated fleet for an external host (until Ctrl-C).
     Sim {
@@ -476,6 +484,28 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let report =
                 run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
             eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
+            finish_assembly(&report, json)?;
+        }
+        Cmd::Run {
+            scenario: Some(path),
+            fleet: Some(fleet),
+            terrain,
+            force,
+            limit,
+            wait,
+            json,
+            ..
+        } => {
+            let fleet = Fleet::load(&fleet)?;
+            let scenario = AsmScenario::from_file(&path, &fleet.config.params.non_pilot.geometry)?;
+            let opts = assemble::FleetRunOptions {
+                terrain,
+                max_duration: limit,
+                wait_s: wait,
+                force,
+                limits: None,
+            };
+            let report = assemble::run_scenario_on_fleet(scenario, &fleet, &runs, &opts).await?;
             finish_assembly(&report, json)?;
         }
         Cmd::Run {

@@ -230,6 +230,24 @@ impl PoseTable {
         self.lock().latest.get(&robot).map(|e| e.sample)
     }
 
+    /// The latest pose of `robot` if it is tracked, however old.
+    pub fn latest_tracked(&self, robot: RobotId) -> Option<PoseSample> {
+        self.lock()
+            .latest
+            .get(&robot)
+            .filter(|e| e.tracked)
+            .map(|e| e.sample)
+    }
+
+    /// How long ago the latest pose of `robot` arrived.
+    pub fn age(&self, robot: RobotId) -> Option<std::time::Duration> {
+        let now = Instant::now();
+        self.lock()
+            .latest
+            .get(&robot)
+            .map(|e| now.duration_since(e.at))
+    }
+
     /// Counters.
     pub fn stats(&self) -> PoseStats {
         let g = self.lock();

@@ -11,7 +11,8 @@
 //! Modules: [`controller`] (the controller loop), [`costs`] (task → MPC cost terms),
 //! [`gate`] (stability gate), [`latency`] (pose prediction over pose age and command
 //! latency), [`slow_steps`] (scenario speed warnings), [`fleets`] (simulated start
-//! fleets), [`report`] (run report and event files), [`run`] (running a scenario).
+//! fleets), [`report`] (run report and event files), [`run`] (running a scenario on a
+//! simulated fleet), [`fleet_run`] (running it on a fleet config's robots).
 
 use std::path::Path;
 
@@ -20,6 +21,7 @@ use puzzlebot_params::FleetParams;
 
 pub mod controller;
 pub mod costs;
+pub mod fleet_run;
 pub mod fleets;
 pub mod gate;
 pub mod latency;
@@ -29,6 +31,7 @@ pub mod slow_steps;
 
 pub use controller::AssemblyController;
 pub use costs::{HANG_HEADING, KEEP_HEADING, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
+pub use fleet_run::{load_terrain, run_scenario_on_fleet, FleetRunOptions};
 pub use fleets::{
     demo_fleet, grow_demo_fleet, scattered_fleet, scattered_fleet_in, DEMO_SCENARIO,
     GROW_DEMO_SCENARIO, LANE_GAP, MIN_START_SPACING,

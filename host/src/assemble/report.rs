@@ -92,6 +92,29 @@ impl TruthRecord {
     }
 }
 
+/// The report of a run of `ctl` on real robots recorded in `folder`: no ground truth, the
+/// final poses are the last measured ones.
+pub(crate) fn report_measured(
+    folder: &RunFolder,
+    ctl: &AssemblyController,
+    summary: RunSummary,
+    final_poses: BTreeMap<RobotId, [f64; 3]>,
+) -> AssemblyReport {
+    AssemblyReport {
+        folder: folder.dir().to_path_buf(),
+        coupling_truth: Vec::new(),
+        state: ctl.state().clone(),
+        events: ctl.events.clone(),
+        gate_stops: ctl.gate_stops.clone(),
+        summary,
+        final_poses,
+        coupled_truth: Vec::new(),
+        mpc_failures: ctl.mpc_failures,
+        mpc_failure_reasons: ctl.mpc_failure_reasons.clone(),
+        fallen: Vec::new(),
+    }
+}
+
 /// The report of a run of `ctl` recorded in `folder`, with the simulator's ground truth.
 pub(crate) fn report_of(
     folder: &RunFolder,
