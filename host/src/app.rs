@@ -182,22 +182,26 @@ pub enum Behaviour {
     },
 }
 
-/// Run a behaviour against the robots of a fleet config (real or simulated elsewhere).
+/// Run a behaviour against the robots of a fleet config (real or simulated elsewhere), after
+/// the pre-flight check ([`crate::preflight`]; `force` starts despite it, logged).
 pub async fn run_fleet(
     fleet: &Fleet,
     behaviour: Behaviour,
     speed: f64,
     wait: Duration,
     runs_dir: &Path,
+    force: bool,
 ) -> anyhow::Result<RunReport> {
     let (link, poses) = start_host(fleet).await?;
-    let expected = fleet.config.robots.len().max(1);
-    if !link.wait_for_robots(expected, wait).await {
-        tracing::warn!(
-            online = link.online().len(),
-            expected,
-            "not every listed robot is online; driving those that are"
-        );
+    let params = &fleet.config.params;
+    let limits = crate::preflight::PreflightLimits::for_fleet(params);
+    let listed = &fleet.config.robots;
+    let (table, problems) =
+        crate::preflight::check(&link, &poses.table, listed, params, &limits, wait).await;
+    eprint!("{table}");
+    if let Err(e) = crate::preflight::decide(&problems, force) {
+        link.shutdown().await;
+        return Err(e);
     }
     let stale = Duration::from_millis(u64::from(fleet.config.params.rates.pose_stale_after_ms));
     let mut plans = BTreeMap::new();

@@ -611,6 +611,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             size,
             speed,
             wait,
+            force,
             ..
         } => {
             let Some(fleet) = fleet else {
@@ -621,8 +622,15 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 BehaviourArg::Line => app::Behaviour::Line { length: size },
                 BehaviourArg::Circle => app::Behaviour::Circle { radius: size },
             };
-            let report =
-                app::run_fleet(&fleet, b, speed, Duration::from_secs_f64(wait), &runs).await?;
+            let report = app::run_fleet(
+                &fleet,
+                b,
+                speed,
+                Duration::from_secs_f64(wait),
+                &runs,
+                force,
+            )
+            .await?;
             print!("{}", app::describe(&report));
         }
         Cmd::Sim { scenario, fleet } => {
