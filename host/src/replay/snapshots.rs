@@ -186,11 +186,16 @@ fn panel(out: &mut String, tl: &Timeline, f: &Frame, size: (f64, f64), m: &Miles
         );
     }
     for b in &tl.bodies {
-        let pts: Vec<[f64; 2]> = tl
-            .samples
-            .iter()
-            .filter_map(|s| s.poses.get(&b.id).map(|p| [p[0], p[1]]))
-            .collect();
+        // Points closer than a pixel to the last one kept add nothing to the drawing.
+        let mut pts: Vec<[f64; 2]> = Vec::new();
+        for p in tl.samples.iter().filter_map(|s| s.poses.get(&b.id)) {
+            let far = pts
+                .last()
+                .is_none_or(|l| (p[0] - l[0]).hypot(p[1] - l[1]) * f.scale >= 1.0);
+            if far {
+                pts.push([p[0], p[1]]);
+            }
+        }
         if pts.len() > 1 {
             let _ = write!(
                 out,
@@ -286,7 +291,7 @@ pub fn svg(tl: &Timeline, title: &str) -> String {
     let dot = |c: &str| format!(r##"<tspan fill="{c}">●</tspan>"##);
     let _ = write!(
         out,
-        r##"<text x="{gap}" y="{:.0}" font-size="12">pilot <tspan fill="{PILOT}">■</tspan>  non-pilot <tspan fill="{NON_PILOT}">■</tspan>   anchor head: {} free {} inserting {} coupled {} releasing   coupled: <tspan fill="{ANCHOR_LINK}">━</tspan> anchor <tspan fill="{KNOB_LINK}">━</tspan> knob   paths faint</text></svg>"##,
+        r##"<text x="{gap}" y="{:.0}" font-size="12"><tspan fill="{PILOT}">■</tspan> pilot, <tspan fill="{NON_PILOT}">■</tspan> non-pilot · anchor head {} free, {} inserting, {} coupled, {} releasing · coupled <tspan fill="{ANCHOR_LINK}">━</tspan> anchor, <tspan fill="{KNOB_LINK}">━</tspan> knob · paths faint</text></svg>"##,
         height - 9.0,
         dot("#9e9e9e"),
         dot("#fb8c00"),
