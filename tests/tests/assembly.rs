@@ -40,7 +40,8 @@ async fn run(
         .await
         .expect("run");
     print!("{}", puzzlebot_host::assemble::describe(&r));
-    assert!(r.folder.join("trajectories.svg").is_file());
+    let replay = puzzlebot_host::replay::write(&r.folder).expect("the run folder replays");
+    assert!(replay.page.is_file() && replay.picture.is_file());
     assert!(r.folder.join("assembly_events.jsonl").is_file());
     r
 }

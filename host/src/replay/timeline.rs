@@ -300,8 +300,12 @@ impl Timeline {
                 (bodies_of(&robots, &FleetParams::default()), Terrain::flat())
             }
         };
+        // A real-time run's records carry the link's clock; its controller (events, pair
+        // statuses) starts at the first record.
         let mut samples: Vec<Sample> = samples.into_values().collect();
+        let t0 = samples.first().map_or(0.0, |s| s.t);
         for s in &mut samples {
+            s.t -= t0;
             s.couplings = host_connected(&pairs, s.t);
         }
         Ok(Timeline {
