@@ -419,12 +419,23 @@ pub fn command(opts: &Options, runs_dir: &Path) -> anyhow::Result<Summary> {
 pub fn replay(opts: &Options, seed: u64, runs_dir: &Path) -> anyhow::Result<Outcome> {
     let shapes: Vec<CustomShape> = custom_shapes(&opts.shapes_dir)?;
     let ep = opts.draw(seed, &shapes);
-    println!("{}", ep.describe());
+    // With `--json` (no progress) stdout gets the JSON alone; these lines go to stderr.
+    let say = |line: String| {
+        if opts.progress {
+            println!("{line}");
+        } else {
+            eprintln!("{line}");
+        }
+    };
+    say(ep.describe());
     let o = run_episode(&ep, Some(runs_dir));
-    println!(
-        "{}: {}{}; formation {}, {:.1} s simulated in {:.1} s",
-        if o.success { "passed" } else { "FAILED" },
-        o.failure.map_or("", |f| f.name()),
+    say(format!(
+        "{}{}; formation {}, {:.1} s simulated in {:.1} s",
+        match o.failure {
+            Some(f) => format!("FAILED: {}", f.name()),
+            None if o.success => "passed".to_string(),
+            None => "FAILED".to_string(),
+        },
         if o.detail.is_empty() {
             String::new()
         } else {
@@ -434,7 +445,7 @@ pub fn replay(opts: &Options, seed: u64, runs_dir: &Path) -> anyhow::Result<Outc
             .map_or("not complete".to_string(), |t| format!("{t:.1} s")),
         o.sim_s,
         o.wall_s
-    );
+    ));
     Ok(o)
 }
 
