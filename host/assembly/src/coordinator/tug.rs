@@ -111,3 +111,52 @@ impl Coordinator {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The guide test of an anchor pair in the default geometry, for a head at `h`.
+    fn inside(h: [f64; 2]) -> bool {
+        let m = PairMeasure {
+            head_along: 0.0,
+            head_gap: 0.0,
+            point_along: 0.0,
+            point_gap: 0.0,
+            yaw_error: 0.0,
+            head_in_b: h,
+        };
+        in_guide(&Coupling::default(), &Geometry::default(), &m)
+    }
+
+    /// A tug of 1.5 s at 10 Hz whose head lies at `x(k)` along the axis at update k.
+    fn tug(x: impl Fn(usize) -> f64) -> Tug {
+        Tug {
+            heads: (0..15).map(|k| (0.1 * k as f64, [x(k), 0.0])).collect(),
+        }
+    }
+
+    #[test]
+    fn a_held_anchor_passes_its_tug_under_noise_and_one_pulled_out_does_not() {
+        let (g, c) = (Geometry::default(), Coupling::default());
+        let reach = f64::from(c.anchor_travel) + f64::from(c.anchor_seat);
+        // Pulled to full travel: the head sits the travel out from its seat, 1 mm inside
+        // the guide's mouth limit.
+        let seat = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(&g);
+        let held = seat + f64::from(c.anchor_travel);
+        // Capture noise of ±1.5–2 mm on the head: several single poses lie outside the guide.
+        let noise = [1.5e-3, -1.5e-3, 2.0e-3, -2.0e-3, 0.5e-3];
+        let noisy = tug(|k| held + noise[k % noise.len()]);
+        assert!(
+            noisy.heads.iter().any(|&(_, h)| !inside(h)),
+            "the noise must put single poses outside the guide"
+        );
+        assert!(noisy.held(inside, reach));
+        // Not coupled: the head leaves the guide at the approach speed (0.05 m/s).
+        let pulled_out = tug(|k| held + 0.005 * k as f64);
+        assert!(!pulled_out.held(inside, reach));
+        // Never in: a head that stays at the face is blocked, not held.
+        let at_face = tug(|_| f64::from(g.anchor_opening[0]) + 1e-3);
+        assert!(!at_face.held(inside, reach));
+    }
+}
