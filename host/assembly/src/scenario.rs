@@ -913,7 +913,7 @@ impl ScenarioRunner {
                     },
                 )
             }
-            Behaviour::Disperse { goals, .. } => {
+            Behaviour::Disperse { goals, tolerance } => {
                 // Lost robots get no goal; one never seen is an error in the scenario.
                 let mut resolved = BTreeMap::new();
                 let pose_of = |id: RobotId| {
@@ -946,7 +946,13 @@ impl ScenarioRunner {
                         }
                     }
                 }
-                c.set_mode(t, Mode::Disperse { goals: resolved })
+                c.set_mode(
+                    t,
+                    Mode::Disperse {
+                        goals: resolved,
+                        tolerance,
+                    },
+                )
             }
         }
         Ok(())
@@ -1011,7 +1017,7 @@ impl ScenarioRunner {
             }
             Behaviour::Decouple { .. } => c.decouple_done(),
             Behaviour::Disperse { tolerance, .. } => match c.mode() {
-                Mode::Disperse { goals } => goals.iter().all(|(id, g)| {
+                Mode::Disperse { goals, .. } => goals.iter().all(|(id, g)| {
                     c.lost().contains(id)
                         || c.pose(*id)
                             .is_some_and(|p| (p.x - g.x).hypot(p.y - g.y) <= *tolerance)
@@ -1240,7 +1246,7 @@ disperse = { goal = [{ robot = 1, x = 0.2, y = 0.4 }, { robot = 2, ahead = 0.3 }
             at(3, 1.1, 0.3, RobotKind::NonPilot),
         ];
         r.tick(0.0, &robots);
-        let Mode::Disperse { goals } = r.coordinator().mode() else {
+        let Mode::Disperse { goals, .. } = r.coordinator().mode() else {
             panic!("{:?}", r.coordinator().mode());
         };
         assert!(

@@ -57,6 +57,8 @@ pub enum Mode {
     Disperse {
         /// Goals.
         goals: BTreeMap<RobotId, Pose2>,
+        /// A robot this near its goal has arrived (m; the step's tolerance).
+        tolerance: f64,
     },
 }
 

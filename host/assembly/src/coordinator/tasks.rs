@@ -407,8 +407,7 @@ impl Coordinator {
                     roles.entry(w.partner).or_insert((partner_role, None));
                 }
             }
-            Mode::Disperse { goals } => {
-                let d = self.cfg.dock;
+            Mode::Disperse { goals, tolerance } => {
                 for (id, goal) in goals {
                     // A non-pilot drives round the others (the MPC has no obstacle terms: two
                     // robots whose goals lie behind each other would push head-on) by the
@@ -419,7 +418,9 @@ impl Coordinator {
                     let role = match self.robots.get(id) {
                         Some(k) if self.kind_of(*id) == RobotKind::NonPilot => {
                             let here = k.pose;
-                            if (goal.x - here.x).hypot(goal.y - here.y) <= d.capture {
+                            // Within half the tolerance: pose noise does not carry it
+                            // back out of the step's tolerance.
+                            if (goal.x - here.x).hypot(goal.y - here.y) <= 0.5 * tolerance {
                                 Role::Hold
                             } else {
                                 let to = self.disperse_step(*id, goal.xy()).unwrap_or(goal.xy());
@@ -526,7 +527,13 @@ mod tests {
             (5, Pose2::new(-0.5, 0.005, 0.0)),
         ]
         .into();
-        c.set_mode(0.0, Mode::Disperse { goals });
+        c.set_mode(
+            0.0,
+            Mode::Disperse {
+                goals,
+                tolerance: 0.02,
+            },
+        );
         let tick = c.tick(0.0, &robots);
         let drive = |id| match role_of(&tick, id) {
             Role::Drive { v, w } => (*v, *w),
