@@ -334,23 +334,7 @@ enum ExperimentCmd {
 enum PlanCmd {
     /// Rank shapes (line, meshes), pilot places (front, back) and headings (0-50°) for
     /// crossing the gap ahead along +x by the gate's margin, and say which can cross.
-    Crossing {
-        /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
-        #[arg(long)]
-        terrain: PathBuf,
-        /// Number of robots.
-        #[arg(long)]
-        robots: usize,
-        /// Number of pilots among them.
-        #[arg(long, default_value_t = 0)]
-        pilots: usize,
-        /// y of the front robot's start (m).
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        start_y: f64,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
-    },
+    Crossing(puzzlebot_stability::crossing::CrossingArgs),
 }
 
 #[derive(Subcommand)]
@@ -812,18 +796,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             print!("{report}");
         }
         Cmd::Plan {
-            command:
-                PlanCmd::Crossing {
-                    terrain,
-                    robots,
-                    pilots,
-                    start_y,
-                    json,
-                },
+            command: PlanCmd::Crossing(args),
         } => {
-            let out = puzzlebot_stability::crossing::crossing_command(
-                &terrain, robots, pilots, start_y, json,
-            )?;
+            let out = args.run()?;
             println!("{}", out.trim_end());
         }
         Cmd::Gate {

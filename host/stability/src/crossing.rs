@@ -413,6 +413,40 @@ pub fn load_terrain(path: &std::path::Path) -> Result<Terrain, PlanError> {
     Ok(t)
 }
 
+/// The command-line arguments of the crossing planner (`puzzlebot plan crossing`,
+/// `puzzlebot-gate crossing`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CrossingArgs {
+    /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
+    #[arg(long)]
+    pub terrain: std::path::PathBuf,
+    /// Number of robots.
+    #[arg(long)]
+    pub robots: usize,
+    /// Number of pilots among them.
+    #[arg(long, default_value_t = 0)]
+    pub pilots: usize,
+    /// y of the front robot's start (m).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub start_y: f64,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl CrossingArgs {
+    /// Run the planner: its table (or JSON) as text.
+    pub fn run(&self) -> Result<String, PlanError> {
+        crossing_command(
+            &self.terrain,
+            self.robots,
+            self.pilots,
+            self.start_y,
+            self.json,
+        )
+    }
+}
+
 /// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON.
 pub fn crossing_command(
     terrain: &std::path::Path,

@@ -41,23 +41,7 @@ enum Cmd {
     },
     /// Rank shapes, pilot places and headings for crossing the gap ahead along +x by the
     /// gate's margin, and say which can cross.
-    Crossing {
-        /// Terrain file (TOML `[[platforms]]`).
-        #[arg(long)]
-        terrain: PathBuf,
-        /// Number of robots.
-        #[arg(long)]
-        robots: usize,
-        /// Number of pilots among them.
-        #[arg(long, default_value_t = 0)]
-        pilots: usize,
-        /// y of the front robot's start (m).
-        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-        start_y: f64,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
-    },
+    Crossing(puzzlebot_stability::crossing::CrossingArgs),
     /// Write a benchmark problem as JSON (families: chain, mesh, tree-ground, tree-hanging).
     Export {
         /// Family name.
@@ -89,15 +73,7 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             }
         },
-        Cmd::Crossing {
-            terrain,
-            robots,
-            pilots,
-            start_y,
-            json,
-        } => match puzzlebot_stability::crossing::crossing_command(
-            &terrain, robots, pilots, start_y, json,
-        ) {
+        Cmd::Crossing(args) => match args.run() {
             Ok(s) => {
                 print!("{s}");
                 ExitCode::SUCCESS
