@@ -426,6 +426,23 @@ impl Mechanics {
         self.groups(n, |_| true)
     }
 
+    /// Islands of bodies that can act on each other this step (joined by a link or a
+    /// broad-phase pair): a label per body, equal within an island.
+    pub fn islands(&self, n: usize) -> Vec<usize> {
+        let mut g = petgraph::unionfind::UnionFind::<usize>::new(n);
+        for l in &self.links {
+            if l.a < n && l.b < n {
+                g.union(l.a, l.b);
+            }
+        }
+        for &(i, j) in &self.pairs {
+            if i < n && j < n {
+                g.union(i, j);
+            }
+        }
+        g.into_labeling()
+    }
+
     fn linked(&self, i: usize, j: usize) -> bool {
         self.links
             .iter()

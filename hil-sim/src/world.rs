@@ -43,6 +43,7 @@ pub const DROP_REPORT: f64 = 0.005;
 /// Most motion-capture frames kept for [`World::take_mocap`].
 pub const MOCAP_BACKLOG: usize = 256;
 
+mod feedback;
 mod operator;
 mod terrain;
 
@@ -237,13 +238,8 @@ struct SimRobot {
 /// Steps between exact refreshes of a robot's cached heading sine and cosine.
 const TRIG_REFRESH: u32 = 1024;
 /// Largest velocity change (m/s) the contact and coupling projection feeds back into a
-/// robot in one step. A loop of couplings closed inconsistently (measured: an anchor latching
-/// into a robot knob-locked into the other row of a mesh) made the projection's corrections
-/// grow step by step and threw a robot 41 m in 10 s; a robot dropped 20 mm into another was
-/// thrown 7.9 m. The bound keeps that to a jolt (0.33 m), not a flight. Lower bounds change
-/// ordinary contacts: at 0.5 m/s (and 10 rad/s) twice as many of the grown demo's meshes
-/// turned off their line while driving (22 of 96 lockstep runs against 9), and dropping
-/// feedback above 1 m/s instead of bounding it cost 12 of 71 formations.
+/// robot in one step: a backstop beside the energy bound of `world/feedback.rs`, so that even
+/// a momentum exchange in a badly closed loop of couplings is a jolt, not a flight.
 const MAX_FEEDBACK_SPEED: f64 = 2.0;
 /// The same for the yaw rate (rad/s).
 const MAX_FEEDBACK_TURN: f64 = 40.0;
@@ -278,6 +274,8 @@ pub struct World {
     scratch: Vec<(u16, f64, f64, f64, f64)>,
     /// Per-step scratch: wheel angles before and body velocities after each drive step.
     plant_out: Vec<([f64; 2], [f64; 3])>,
+    /// Scratch: per robot velocity change (v, v_y, Ω) the projection asks for.
+    feedback: Vec<[f64; 3]>,
 }
 
 impl World {
@@ -371,6 +369,7 @@ impl World {
             outbox: Vec::new(),
             scratch: Vec::new(),
             plant_out: Vec::new(),
+            feedback: Vec::new(),
         })
     }
 
@@ -465,26 +464,7 @@ impl World {
         // 2. Contacts and couplings, with the projection fed back into velocities.
         self.link_events.clear();
         self.mech.resolve(&mut self.bodies, &mut self.link_events);
-        for (r, body) in self.robots.iter_mut().zip(self.bodies.iter()) {
-            if r.fallen {
-                continue;
-            }
-            let dx = body.pose.x - r.pose.x;
-            let dy = body.pose.y - r.pose.y;
-            let dyaw = crate::math::wrap(body.pose.yaw - r.pose.yaw);
-            if dx != 0.0 || dy != 0.0 || dyaw != 0.0 {
-                let [s, c] = body.trig;
-                let lim = |x: f64, m: f64| x.clamp(-m, m);
-                r.drive.v += lim((c * dx + s * dy) / dt, MAX_FEEDBACK_SPEED);
-                r.drive.vy += lim((-s * dx + c * dy) / dt, MAX_FEEDBACK_SPEED);
-                r.drive.omega += lim(dyaw / dt, MAX_FEEDBACK_TURN);
-                r.pose = body.pose;
-                if dyaw != 0.0 {
-                    r.trig = body.trig;
-                    r.trig_age = 0;
-                }
-            }
-        }
+        self.feed_back_projection(dt);
         for e in std::mem::take(&mut self.link_events) {
             let (kind, a, b, coupled) = match e {
                 LinkEvent::Coupled(k, a, b) => (k, a, b, true),
