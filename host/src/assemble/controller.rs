@@ -7,7 +7,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use puzzlebot_assembly::{
     Coordinator, CoordinatorConfig, Event, EventKind, Mode, PairStatus, PairTolerances, PairType,
-    RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner,
+    RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner, Tick,
 };
 use puzzlebot_mpc::{
     CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose, RobotInput, SolveStatus,
@@ -18,6 +18,7 @@ use puzzlebot_protocol::messages::RobotId;
 use super::costs::{costs, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
 use super::gate::{Gate, GateConfig, GateStop};
 use super::latency::{PoseHistory, FLEET_WAIT_S, MAX_PREDICTION_S};
+use super::separation::{separate, Exemptions, SeparationConfig};
 use super::slow_steps::slow_step_warnings;
 use crate::control::{Controller, FleetView, HandRequest};
 use crate::drive::Twist;
@@ -61,6 +62,10 @@ pub struct AssemblyController {
     pub fleet_wait_s: f64,
     /// The scenario has had its first tick.
     runner_started: bool,
+    /// Keeps robots that are not docking apart.
+    separation: SeparationConfig,
+    /// Commands the separation filter has slowed.
+    pub separation_slowed: u64,
     /// Every robot's last pose and velocity, for [`AssemblyController::max_prediction_s`].
     poses: PoseHistory,
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
@@ -115,6 +120,8 @@ impl AssemblyController {
             poses: PoseHistory::default(),
             fleet_wait_s: FLEET_WAIT_S,
             runner_started: false,
+            separation: SeparationConfig::from_geometry(&g),
+            separation_slowed: 0,
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -129,6 +136,63 @@ impl AssemblyController {
     /// Where the scenario stands.
     pub fn state(&self) -> &RunState {
         self.runner.state()
+    }
+
+    /// The separation filter ([`separate`]) over this tick's commands: robots that drive alone
+    /// keep clear of every robot they are not docking with.
+    fn keep_apart(
+        &mut self,
+        tick: &Tick,
+        states: &[RobotState],
+        segments: &BTreeMap<usize, Vec<RobotId>>,
+        wait: &BTreeSet<RobotId>,
+        out: &mut BTreeMap<RobotId, Twist>,
+    ) {
+        // Forming brings robots into contact on purpose (docking, robots waiting beside an
+        // approach): the approach planning keeps corridors free there.
+        if matches!(self.runner.coordinator().mode(), Mode::Form) {
+            return;
+        }
+        let pairs = self.runner.coordinator().pairs();
+        let mut exempt = Exemptions {
+            segment: tick.tasks.iter().map(|t| (t.robot, t.segment)).collect(),
+            ..Exemptions::default()
+        };
+        let mut touch = |a: RobotId, b: RobotId| {
+            if let (Some(&sa), Some(&sb)) = (exempt.segment.get(&a), exempt.segment.get(&b)) {
+                exempt.allow(sa, sb);
+            }
+        };
+        for (i, p) in pairs.iter().enumerate() {
+            if p.status != PairStatus::Decoupled || tick.active.contains(&i) {
+                touch(p.pair.a, p.pair.b);
+            }
+        }
+        for task in &tick.tasks {
+            let partner = match task.role {
+                Role::Follow { leader, .. } => Some(leader),
+                Role::Align { partner, .. } => Some(partner),
+                Role::Dock { pair, .. } | Role::Hitch { pair, .. } => pairs.get(pair).map(|p| {
+                    if p.pair.a == task.robot {
+                        p.pair.b
+                    } else {
+                        p.pair.a
+                    }
+                }),
+                _ => None,
+            };
+            if let Some(partner) = partner {
+                touch(task.robot, partner);
+            }
+        }
+        let alone: BTreeSet<RobotId> = segments
+            .values()
+            .filter(|m| m.len() == 1)
+            .flatten()
+            .copied()
+            .filter(|id| !wait.contains(id))
+            .collect();
+        self.separation_slowed += separate(&self.separation, states, &alone, &exempt, out) as u64;
     }
 
     fn limits(&self, kind: RobotKind) -> Limits {
@@ -346,6 +410,7 @@ impl Controller for AssemblyController {
             }
         }
         out.extend(direct);
+        self.keep_apart(&tick, &predicted, &segments, &wait, &mut out);
         let segs: BTreeMap<usize, Vec<RobotId>> =
             segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
         // Robots in a pair that is inserted or connected move with their partners.

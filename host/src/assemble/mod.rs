@@ -27,6 +27,7 @@ pub mod gate;
 pub mod latency;
 pub mod report;
 pub mod run;
+pub mod separation;
 pub mod slow_steps;
 
 pub use controller::AssemblyController;
