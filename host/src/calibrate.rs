@@ -630,15 +630,15 @@ pub fn describe(cal: &Calibration) -> String {
     s
 }
 
-/// `puzzlebot calibrate`: against a fleet config's robot, or (no config) a simulated robot.
-pub async fn run_cli(
+/// Run folder `calibrate-ROBOT` and the parameter file to write (`out`, or
+/// `robot-ROBOT.toml` / `robot-ROBOT-duty.toml` in the run folder).
+pub(crate) fn cli_folder(
     robot: RobotId,
-    fleet: Option<&crate::config::Fleet>,
     mode: Mode,
     out: Option<&Path>,
     runs_dir: &Path,
-) -> anyhow::Result<String> {
-    let mut folder = crate::report::RunFolder::create(runs_dir, &format!("calibrate-{robot}"))?;
+) -> anyhow::Result<(crate::report::RunFolder, PathBuf)> {
+    let folder = crate::report::RunFolder::create(runs_dir, &format!("calibrate-{robot}"))?;
     let name = match mode {
         Mode::Speed => format!("robot-{robot}.toml"),
         Mode::Duty => format!("robot-{robot}-duty.toml"),
@@ -646,71 +646,53 @@ pub async fn run_cli(
     let out: PathBuf = out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| folder.dir().join(name));
-    let (cal, base, m_min_truth) = match fleet {
-        Some(f) => {
-            let (link, poses) = crate::app::start_host(f).await?;
-            if !link.wait_for_robots(1, Duration::from_secs(10)).await
-                || !link.online().contains(&robot)
-            {
-                link.shutdown().await;
-                anyhow::bail!("robot {robot} did not come online within 10 s");
-            }
-            let kind = link
-                .status(robot)
-                .and_then(|s| s.kind)
-                .unwrap_or(RobotKind::NonPilot);
-            let plan = Plan::default_for(mode, kind);
-            let pb = crate::app::progress_bar(plan.steps() as f64, "calibrating");
-            let cal = calibrate(&link, &poses.table, robot, &plan, Some(&pb), None).await;
-            pb.finish_and_clear();
-            link.shutdown().await;
-            (cal?, f.params_for(robot, kind), None)
-        }
-        None => {
-            let scenario = puzzlebot_sim::Scenario {
-                robots: vec![puzzlebot_sim::RobotSpec {
-                    id: robot,
-                    kind: RobotKind::NonPilot,
-                    pose: [0.0, 0.0, 0.0],
-                    impairments: None,
-                    offline: false,
-                    mismatch: puzzlebot_sim::PlantMismatch::NONE,
-                }],
-                ..puzzlebot_sim::Scenario::default()
-            };
-            let h = crate::simulated::SimHarness::start(scenario).await?;
-            h.wait_ready(1, Duration::from_secs(5)).await?;
-            let plan = Plan::default_for(mode, RobotKind::NonPilot);
-            let pb = crate::app::progress_bar(plan.steps() as f64, "calibrating");
-            let cal = calibrate(
-                &h.link,
-                &h.poses.table,
-                robot,
-                &plan,
-                Some(&pb),
-                Some(sim_probe(&h, robot)),
-            )
-            .await;
-            pb.finish_and_clear();
-            let base = h.params.robot(RobotKind::NonPilot).clone();
-            let v = h.fleet.ground_truth().robot(robot).map(|r| r.battery_v);
-            h.shutdown().await;
-            let truth = match (mode, v) {
-                (Mode::Duty, Some(v)) => {
-                    Some(1000.0 * f64::from(base.plant.dead_band_duty(v as f32)))
-                }
-                _ => None,
-            };
-            (cal?, base, truth)
-        }
-    };
-    let params = apply(&base, &cal.fit);
-    write_params(&out, &params, &cal)?;
+    Ok((folder, out))
+}
+
+/// `puzzlebot calibrate --fleet F`: robot `robot` of a fleet config (a simulated robot:
+/// `crate::simulated::calibrate`).
+pub async fn run_cli(
+    robot: RobotId,
+    fleet: &crate::config::Fleet,
+    mode: Mode,
+    out: Option<&Path>,
+    runs_dir: &Path,
+) -> anyhow::Result<String> {
+    let (folder, out) = cli_folder(robot, mode, out, runs_dir)?;
+    let (link, poses) = crate::app::start_host(fleet).await?;
+    if !link.wait_for_robots(1, Duration::from_secs(10)).await || !link.online().contains(&robot) {
+        link.shutdown().await;
+        anyhow::bail!("robot {robot} did not come online within 10 s");
+    }
+    let kind = link
+        .status(robot)
+        .and_then(|s| s.kind)
+        .unwrap_or(RobotKind::NonPilot);
+    let plan = Plan::default_for(mode, kind);
+    let pb = crate::app::progress_bar(plan.steps() as f64, "calibrating");
+    let cal = calibrate(&link, &poses.table, robot, &plan, Some(&pb), None).await;
+    pb.finish_and_clear();
+    link.shutdown().await;
+    finish_cli(folder, &out, &fleet.params_for(robot, kind), &cal?, None)
+}
+
+/// The end of `puzzlebot calibrate`: the parameter file `out` (the fit applied to `base`),
+/// the plot and `calibration.json` in the run folder, and the text to print (with the
+/// simulator's dead-band `m_min_truth` when known).
+pub(crate) fn finish_cli(
+    mut folder: crate::report::RunFolder,
+    out: &Path,
+    base: &RobotParams,
+    cal: &Calibration,
+    m_min_truth: Option<f64>,
+) -> anyhow::Result<String> {
+    let params = apply(base, &cal.fit);
+    write_params(out, &params, cal)?;
     let plot = folder.dir().join("calibration.svg");
-    plot_fit(&plot, &cal).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
-    folder.write_json("calibration.json", &cal)?;
+    plot_fit(&plot, cal).map_err(|e| anyhow::anyhow!("plot: {e}"))?;
+    folder.write_json("calibration.json", cal)?;
     folder.finish()?;
-    let mut s = describe(&cal);
+    let mut s = describe(cal);
     if let Some(t) = m_min_truth {
         let _ = writeln!(
             s,
@@ -722,12 +704,6 @@ pub async fn run_cli(
     let _ = writeln!(s, "plot: {}", plot.display());
     let _ = writeln!(s, "run folder: {}", folder.dir().display());
     Ok(s)
-}
-
-/// Ground-truth (v, ω) probe of a simulated robot.
-pub fn sim_probe(h: &crate::simulated::SimHarness, robot: RobotId) -> VelocityProbe {
-    let fleet = std::sync::Arc::clone(&h.fleet);
-    Box::new(move || fleet.ground_truth().robot(robot).map(|r| (r.v, r.omega)))
 }
 
 /// Measured pairs grouped for reporting: (M_r, M_l) → (v, ω).

@@ -5,9 +5,8 @@
 
 use std::time::Duration;
 
-use puzzlebot_host::calibrate::{
-    apply, calibrate, describe, plot_fit, sim_probe, write_params, Mode, Plan,
-};
+use puzzlebot_host::calibrate::{apply, calibrate, describe, plot_fit, write_params, Mode, Plan};
+use puzzlebot_host::simulated::calibrate::sim_probe;
 use puzzlebot_host::simulated::SimHarness;
 use puzzlebot_params::{RobotKind, RobotParams};
 use puzzlebot_sim::Scenario;

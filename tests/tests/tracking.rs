@@ -1,7 +1,7 @@
 //! Four simulated robots track 0.4 m straight lines and circles over loopback UDP, with a
 //! clean link (mean error ≤ 5 mm) and with 10 % datagram loss both ways (≤ 10 mm).
 
-use puzzlebot_host::app::{demo_plans, run_simulated, scenario_for};
+use puzzlebot_host::simulated::tracking::{demo_plans, run_simulated, scenario_for};
 use puzzlebot_sim::Impairments;
 
 fn check(report: &puzzlebot_host::app::RunReport, limit_m: f64) {

@@ -10,9 +10,10 @@
 //!
 //! Modules: [`controller`] (the controller loop), [`costs`] (task → MPC cost terms),
 //! [`gate`] (stability gate), [`latency`] (pose prediction over pose age and command
-//! latency), [`slow_steps`] (scenario speed warnings), [`fleets`] (simulated start
-//! fleets), [`report`] (run report and event files), [`run`] (running a scenario on a
-//! simulated fleet), [`fleet_run`] (running it on a fleet config's robots).
+//! latency), [`slow_steps`] (scenario speed warnings), [`report`] (run report and event
+//! files), [`fleet_run`] (running a scenario on a fleet config's robots); with the simulator
+//! (feature `sim`): `fleets` (simulated start fleets), `run` (running a scenario on a
+//! simulated fleet) and `truth` (its report against the simulator's ground truth).
 
 use std::path::Path;
 
@@ -22,17 +23,22 @@ use puzzlebot_params::FleetParams;
 pub mod controller;
 pub mod costs;
 pub mod fleet_run;
+#[cfg(feature = "sim")]
 pub mod fleets;
 pub mod gate;
 pub mod latency;
 pub mod report;
+#[cfg(feature = "sim")]
 pub mod run;
 pub mod separation;
 pub mod slow_steps;
+#[cfg(feature = "sim")]
+pub mod truth;
 
 pub use controller::AssemblyController;
 pub use costs::{HANG_HEADING, KEEP_HEADING, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
 pub use fleet_run::{load_terrain, run_scenario_on_fleet, FleetRunOptions};
+#[cfg(feature = "sim")]
 pub use fleets::{
     demo_fleet, grow_demo_fleet, scattered_fleet, scattered_fleet_in, DEMO_SCENARIO,
     GROW_DEMO_SCENARIO, LANE_GAP, MIN_START_SPACING,
@@ -40,6 +46,7 @@ pub use fleets::{
 pub use gate::{GateConfig, GateStop};
 pub use latency::{predict, FLEET_WAIT_S, MAX_PREDICTION_S};
 pub use report::{describe, AssemblyReport, TruthCoupling, TruthRecord};
+#[cfg(feature = "sim")]
 pub use run::{run_scenario, run_scenario_lockstep, RunHook};
 pub use slow_steps::{slow_step_warnings, slowest_steady_speed};
 

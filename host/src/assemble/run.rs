@@ -9,7 +9,8 @@ use puzzlebot_assembly::Scenario as AsmScenario;
 
 use super::controller::AssemblyController;
 use super::gate::GateConfig;
-use super::report::{report_of, write_events, AssemblyReport, TruthRecord};
+use super::report::{write_events, AssemblyReport, TruthRecord};
+use super::truth::report_of;
 use crate::control::RunSummary;
 use crate::report::RunFolder;
 use crate::simulated::SimHarness;

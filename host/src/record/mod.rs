@@ -1,78 +1,26 @@
-//! Recordings of simulated runs: `run.mcap` in the run folder (host README, "Recording"),
-//! JSON messages with Foxglove's well-known schemas so Foxglove opens it without set-up.
+//! Recordings of runs: `run.mcap` in the run folder (host README, "Recording"), JSON
+//! messages with Foxglove's well-known schemas so Foxglove opens it without set-up.
 //!
-//! A recording taps the lockstep loop ([`crate::lockstep::Lockstep::run`]) of the thread it
-//! is started on: [`recording`] installs a [`Recorder`] for the duration of a closure, and
-//! every lockstep run inside it feeds the recorder each command period. Runs on other
-//! threads (parallel experiment episodes) are not recorded.
+//! Lockstep runs of the simulator are recorded (feature `sim`): [`recording`] installs a
+//! [`Recorder`] for the duration of a closure on the thread it is started on, and every
+//! lockstep run inside it feeds the recorder each command period. Runs on other threads
+//! (parallel experiment episodes) are not recorded. Reading a recording back ([`read`]) and
+//! the schemas ([`foxglove`]) need no simulator.
 
 pub mod foxglove;
 pub mod read;
+#[cfg(feature = "sim")]
 pub mod recorder;
+#[cfg(feature = "sim")]
+mod tap;
 
-use std::cell::RefCell;
-use std::path::{Path, PathBuf};
-
-use puzzlebot_protocol::{HostMsg, RobotId};
-use puzzlebot_sim::World;
-
-pub use read::Recording;
-pub use recorder::{Recorder, RunInfo, RUN_ATTACHMENT, SAMPLE_PERIOD};
-
-use crate::assemble::AssemblyReport;
-use crate::control::FleetView;
+pub use read::{Recording, RunInfo, RUN_ATTACHMENT};
+#[cfg(feature = "sim")]
+pub use recorder::{Recorder, SAMPLE_PERIOD};
+#[cfg(feature = "sim")]
+pub(crate) use tap::observe;
+#[cfg(feature = "sim")]
+pub use tap::{recording, run_scenario_lockstep};
 
 /// File name of a run folder's recording.
 pub const RUN_MCAP: &str = "run.mcap";
-
-thread_local! {
-    static TAP: RefCell<Option<Recorder>> = const { RefCell::new(None) };
-}
-
-/// Run `f` with `rec` recording every lockstep run on this thread; returns `f`'s result and
-/// the recorder.
-pub fn recording<R>(rec: Recorder, f: impl FnOnce() -> R) -> (R, Recorder) {
-    /// Removes the recorder even when `f` panics.
-    struct Clear;
-    impl Drop for Clear {
-        fn drop(&mut self) {
-            TAP.with(|t| t.borrow_mut().take());
-        }
-    }
-    TAP.with(|t| *t.borrow_mut() = Some(rec));
-    let clear = Clear;
-    let out = f();
-    let rec = TAP.with(|t| t.borrow_mut().take());
-    drop(clear);
-    (
-        out,
-        rec.expect("the recorder stays installed while `f` runs"),
-    )
-}
-
-/// Called by the lockstep loop once per command period at controller time `t` (a no-op
-/// unless [`recording`] is running on this thread).
-pub(crate) fn observe(t: f64, world: &World, view: &FleetView, sent: &[(RobotId, HostMsg)]) {
-    TAP.with(|tap| {
-        if let Some(rec) = tap.borrow_mut().as_mut() {
-            rec.sample(t, world, view, sent);
-        }
-    });
-}
-
-/// [`crate::assemble::run_scenario_lockstep`], recorded: the run folder also gets
-/// `run.mcap`. Returns the report and the recording's path.
-pub fn run_scenario_lockstep(
-    scenario: puzzlebot_assembly::Scenario,
-    sim: puzzlebot_sim::Scenario,
-    runs_dir: &Path,
-    max_duration: f64,
-) -> anyhow::Result<(AssemblyReport, PathBuf)> {
-    let rec = Recorder::new(&sim);
-    let (report, rec) = recording(rec, || {
-        crate::assemble::run_scenario_lockstep(scenario, sim, runs_dir, max_duration)
-    });
-    let report = report?;
-    let path = rec.finish(&report)?;
-    Ok((report, path))
-}

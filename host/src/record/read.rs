@@ -4,9 +4,26 @@
 use std::path::Path;
 
 use anyhow::Context;
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::RobotId;
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::{RunInfo, RUN_ATTACHMENT};
+/// Name of the attachment that carries the run's robots, parameters and terrain.
+pub const RUN_ATTACHMENT: &str = "puzzlebot_run.json";
+
+/// The run's robots, robot parameters and terrain, attached to the recording so a replay
+/// draws the bodies the run had (and sent first to a live page).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunInfo {
+    /// Every robot: id and kind.
+    pub robots: Vec<(RobotId, RobotKind)>,
+    /// The robot parameters.
+    pub params: FleetParams,
+    /// The terrain.
+    pub terrain: Terrain,
+}
 
 /// One recorded message.
 #[derive(Debug, Clone)]

@@ -7,35 +7,19 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use puzzlebot_assembly::coordinator::{Event, EventKind};
-use puzzlebot_params::terrain::Terrain;
-use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_params::RobotKind;
 use puzzlebot_protocol::{HostMsg, RobotId};
 use puzzlebot_sim::mechanics::{Link, LinkState};
 use puzzlebot_sim::{EventKind as SimEventKind, LinkKind, World};
-use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
 use super::foxglove as fg;
+use super::{RunInfo, RUN_ATTACHMENT};
 use crate::assemble::{AssemblyReport, GateStop};
 use crate::control::FleetView;
 
 /// Interval between pose, footprint and coupling samples (s): 10 Hz.
 pub const SAMPLE_PERIOD: f64 = 0.1;
-
-/// Name of the attachment that carries the run's robots, parameters and terrain.
-pub const RUN_ATTACHMENT: &str = "puzzlebot_run.json";
-
-/// The run's robots, robot parameters and terrain, attached to the recording so a replay
-/// draws the bodies the simulator had.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct RunInfo {
-    /// Every robot: id and kind.
-    pub robots: Vec<(RobotId, RobotKind)>,
-    /// The simulator's robot parameters.
-    pub params: FleetParams,
-    /// The simulator's terrain.
-    pub terrain: Terrain,
-}
 
 /// One buffered message.
 struct Msg {
@@ -114,15 +98,22 @@ fn anchor_color(state: Option<LinkState>) -> [f64; 4] {
     }
 }
 
+impl RunInfo {
+    /// The robots, parameters and terrain of the simulator scenario `sim`.
+    pub fn of_simulator(sim: &puzzlebot_sim::Scenario) -> RunInfo {
+        RunInfo {
+            robots: sim.robots.iter().map(|r| (r.id, r.kind)).collect(),
+            params: sim.params.clone(),
+            terrain: sim.terrain.clone(),
+        }
+    }
+}
+
 impl Recorder {
     /// A recorder for a run of the simulator scenario `sim`.
     pub fn new(sim: &puzzlebot_sim::Scenario) -> Recorder {
         Recorder {
-            info: RunInfo {
-                robots: sim.robots.iter().map(|r| (r.id, r.kind)).collect(),
-                params: sim.params.clone(),
-                terrain: sim.terrain.clone(),
-            },
+            info: RunInfo::of_simulator(sim),
             schemas: BTreeMap::new(),
             messages: Vec::new(),
             next_sample: 0.0,

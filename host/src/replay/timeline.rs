@@ -10,9 +10,7 @@ use puzzlebot_params::geometry::Geometry;
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
-use puzzlebot_sim::mechanics::LinkState;
-use puzzlebot_sim::LinkKind;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::record::foxglove::yaw_of;
@@ -42,8 +40,8 @@ pub struct Coupling {
     pub state: State,
 }
 
-/// Which coupling ([`LinkKind`] of the simulator, ordered).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+/// Which coupling (the simulator's `LinkKind`, ordered; the same names in JSON).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Kind {
     /// Anchor head in an opening.
     Anchor,
@@ -51,8 +49,8 @@ pub enum Kind {
     Knob,
 }
 
-/// Progress of a coupling ([`LinkState`] of the simulator, ordered).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+/// Progress of a coupling (the simulator's `LinkState`, ordered; the same names in JSON).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum State {
     /// Entering.
     Inserting,
@@ -60,25 +58,6 @@ pub enum State {
     Coupled,
     /// Released, not yet apart.
     Releasing,
-}
-
-impl From<LinkKind> for Kind {
-    fn from(k: LinkKind) -> Kind {
-        match k {
-            LinkKind::Anchor => Kind::Anchor,
-            LinkKind::Knob => Kind::Knob,
-        }
-    }
-}
-
-impl From<LinkState> for State {
-    fn from(s: LinkState) -> State {
-        match s {
-            LinkState::Inserting => State::Inserting,
-            LinkState::Coupled => State::Coupled,
-            LinkState::Releasing => State::Releasing,
-        }
-    }
 }
 
 /// Every robot's pose and every coupling at one instant.
@@ -279,7 +258,7 @@ impl Timeline {
         }
         let (bodies, terrain) = match std::fs::read_to_string(dir.join("simulator.json")) {
             Ok(text) => {
-                let sim: puzzlebot_sim::Scenario = serde_json::from_str(&text)
+                let sim: SimulatorFile = serde_json::from_str(&text)
                     .with_context(|| format!("{}", dir.join("simulator.json").display()))?;
                 let robots: Vec<(RobotId, RobotKind)> =
                     sim.robots.iter().map(|r| (r.id, r.kind)).collect();
@@ -358,6 +337,23 @@ struct TelemetryLine {
     pose: Option<[f64; 3]>,
 }
 
+/// What a replay needs of a run folder's `simulator.json` (the simulator's scenario).
+#[derive(Deserialize)]
+struct SimulatorFile {
+    robots: Vec<SimulatorRobot>,
+    #[serde(default)]
+    terrain: Terrain,
+    #[serde(default)]
+    params: FleetParams,
+}
+
+/// A robot of [`SimulatorFile`].
+#[derive(Deserialize)]
+struct SimulatorRobot {
+    id: RobotId,
+    kind: RobotKind,
+}
+
 fn bodies_of(robots: &[(RobotId, RobotKind)], params: &FleetParams) -> Vec<Body> {
     let mut b: Vec<Body> = robots
         .iter()
@@ -375,10 +371,10 @@ fn bodies_of(robots: &[(RobotId, RobotKind)], params: &FleetParams) -> Vec<Body>
 fn links_of(msg: &Value) -> Vec<Coupling> {
     #[derive(Deserialize)]
     struct L {
-        kind: LinkKind,
+        kind: Kind,
         a: RobotId,
         b: RobotId,
-        state: LinkState,
+        state: State,
     }
     let mut out: Vec<Coupling> = msg["links"]
         .as_array()
@@ -386,10 +382,10 @@ fn links_of(msg: &Value) -> Vec<Coupling> {
         .flatten()
         .filter_map(|l| serde_json::from_value::<L>(l.clone()).ok())
         .map(|l| Coupling {
-            kind: l.kind.into(),
+            kind: l.kind,
             a: l.a,
             b: l.b,
-            state: l.state.into(),
+            state: l.state,
         })
         .collect();
     out.sort();

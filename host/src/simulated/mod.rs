@@ -1,7 +1,11 @@
 //! A host wired to an in-process simulated fleet over real loopback sockets: the fleet
 //! link and the pose input bind 127.0.0.1 ephemeral ports, the simulator's robots and
-//! virtual motion capture send to them. Used by `puzzlebot demo`, `run --sim`,
-//! `calibrate --sim` and the end-to-end tests.
+//! virtual motion capture send to them. Used by `puzzlebot demo`, `run` without `--fleet`,
+//! `calibrate` without `--fleet` ([`calibrate`]), the tracking demo ([`tracking`]) and the
+//! end-to-end tests.
+
+pub mod calibrate;
+pub mod tracking;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;

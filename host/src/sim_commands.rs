@@ -1,0 +1,200 @@
+//! The `puzzlebot` subcommands that run the simulator (feature `sim`): the demos, `sim`,
+//! `experiment`, `run` on a simulated fleet and `calibrate` of a simulated robot.
+
+use std::path::PathBuf;
+
+use puzzlebot_assembly::Scenario as AsmScenario;
+use puzzlebot_host::assemble;
+use puzzlebot_host::config::Fleet;
+use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
+
+use super::{finish_assembly, Cmd, ExperimentCmd};
+
+/// An assembly scenario on a simulated fleet: the controller in lockstep with the simulator
+/// (on a blocking thread), or in real time over loopback UDP.
+async fn run_assembly(
+    scenario: AsmScenario,
+    sim: Scenario,
+    runs: &std::path::Path,
+    limit: f64,
+    lockstep: bool,
+) -> anyhow::Result<assemble::AssemblyReport> {
+    let shown = puzzlebot_host::replay::progress::show();
+    let report = if lockstep {
+        let runs = runs.to_path_buf();
+        let (report, _mcap) = tokio::task::spawn_blocking(move || {
+            puzzlebot_host::record::run_scenario_lockstep(scenario, sim, &runs, limit)
+        })
+        .await??;
+        report
+    } else {
+        assemble::run_scenario(scenario, sim, runs, limit, None).await?
+    };
+    drop(shown);
+    Ok(report)
+}
+
+/// Run a simulator subcommand (the CLI sends only those here).
+pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
+    match cmd {
+        Cmd::Demo {
+            tracking: false,
+            realtime,
+            json,
+            ..
+        } => {
+            eprintln!(
+                "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals ({})",
+                if realtime {
+                    "over loopback UDP in real time"
+                } else {
+                    "host controller in lockstep with the simulator"
+                }
+            );
+            let t0 = std::time::Instant::now();
+            let scenario = AsmScenario::from_toml_str(
+                std::path::Path::new("demo.toml"),
+                assemble::DEMO_SCENARIO,
+                &puzzlebot_params::FleetParams::default().non_pilot.geometry,
+            )?;
+            let report =
+                run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
+            eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
+            finish_assembly(&report, json)?;
+        }
+        Cmd::Run {
+            scenario: Some(path),
+            sim,
+            robots,
+            pilots,
+            seed,
+            limit,
+            lockstep,
+            json,
+            ..
+        } => {
+            let params = puzzlebot_params::FleetParams::default();
+            let scenario = AsmScenario::from_file(&path, &params.non_pilot.geometry)?;
+            let sim = match sim {
+                Some(p) => Scenario::from_file(&p)?,
+                None => assemble::scattered_fleet(robots, pilots, seed),
+            };
+            let report = run_assembly(scenario, sim, &runs, limit, lockstep).await?;
+            finish_assembly(&report, json)?;
+        }
+        Cmd::Experiment {
+            command: ExperimentCmd::Coupling { runs: n, json },
+        } => {
+            let t0 = std::time::Instant::now();
+            let stats = tokio::task::spawn_blocking(move || {
+                puzzlebot_host::experiment::coupling_command(n, &runs)
+            })
+            .await??;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&stats)?);
+            } else {
+                print!("{}", puzzlebot_host::experiment::describe(&stats));
+                println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+            }
+        }
+        Cmd::Experiment {
+            command:
+                ExperimentCmd::Assemblies {
+                    episodes,
+                    profile,
+                    seed,
+                    replay,
+                    threads,
+                    shapes,
+                    parallel,
+                    max_robots,
+                    json,
+                },
+        } => {
+            use puzzlebot_host::experiment::{assemblies, episode};
+            let profile = episode::Profile::parse(&profile)?;
+            let shapes_dir = shapes.unwrap_or_else(episode::default_shapes_dir);
+            if !(0.0..=1.0).contains(&parallel) {
+                anyhow::bail!("--parallel: a share within 0..=1, got {parallel}");
+            }
+            let mut opts = assemblies::Options {
+                episodes,
+                profile,
+                seed: 0,
+                threads,
+                shapes_dir,
+                progress: !json,
+                parallel,
+                max_robots,
+            };
+            if let Some(seed) = replay {
+                let o = tokio::task::spawn_blocking(move || assemblies::replay(&opts, seed, &runs))
+                    .await??;
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&o)?);
+                }
+                return Ok(());
+            }
+            opts.seed = seed.unwrap_or_else(|| {
+                let s = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(1, |d| d.as_secs());
+                eprintln!("seed {s} (from the clock; --seed {s} runs this batch again)");
+                s
+            });
+            let s =
+                tokio::task::spawn_blocking(move || assemblies::command(&opts, &runs)).await??;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            }
+        }
+        Cmd::Demo { tracking: true, .. } => {
+            println!("puzzlebot demo --tracking: 4 simulated robots over loopback UDP (2 lines of 0.4 m, 2 circles of r = 0.1 m)");
+            let t0 = std::time::Instant::now();
+            let report = puzzlebot_host::simulated::tracking::demo(&runs, true).await?;
+            print!("{}", puzzlebot_host::app::describe(&report));
+            println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+        }
+        Cmd::Sim { scenario, fleet } => {
+            let fleet = Fleet::load(&fleet)?;
+            let scenario = match scenario {
+                Some(p) => Scenario::from_file(&p)?,
+                None => Scenario::grid(4, 1),
+            };
+            let sim = SimFleet::start(
+                scenario,
+                SimOptions {
+                    fleet_key: fleet.key.clone(),
+                    host_addr: fleet.config.link.bind,
+                    pose_addr: Some(fleet.config.pose.bind),
+                    pace: Pace::RealTime,
+                },
+            )?;
+            // The robots trust updates signed with the fleet's update key, as provisioned.
+            sim.set_update_key(puzzlebot_host::fleet_update::verifying_key(&fleet.path)?);
+            for (id, addr) in sim.robot_addrs() {
+                println!("robot {id} on {addr}");
+            }
+            println!(
+                "sending to host {} and poses to {}; Ctrl-C stops",
+                fleet.config.link.bind, fleet.config.pose.bind
+            );
+            tokio::signal::ctrl_c().await?;
+            sim.stop();
+        }
+        Cmd::Calibrate {
+            robot, mode, out, ..
+        } => {
+            let report = puzzlebot_host::simulated::calibrate::run_cli(
+                robot,
+                mode.into(),
+                out.as_deref(),
+                &runs,
+            )
+            .await?;
+            print!("{report}");
+        }
+        _ => anyhow::bail!("not a simulator subcommand"),
+    }
+    Ok(())
+}
