@@ -12,6 +12,8 @@ pub mod assemble;
 pub mod calibrate;
 pub mod config;
 pub mod control;
+#[cfg(feature = "sim")]
+pub mod crossing;
 pub mod drive;
 #[cfg(feature = "sim")]
 pub mod experiment;

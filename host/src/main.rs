@@ -138,9 +138,10 @@ enum FleetCmd {
 #[derive(Subcommand)]
 enum Cmd {
     /// The main job on a simulated fleet: 6 robots (2 pilots set down in one lane, the rest
-    /// scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals
-    /// (host/assembly/data/scenarios/demo.toml), the host's controller in lockstep with the
-    /// simulator (deterministic, faster than real time).
+    /// scattered) form a 2-row mesh and drive it 0.5 m (host/assembly/data/scenarios/demo.toml
+    /// up to its decoupling), the host's controller in lockstep with the simulator; then the
+    /// mesh crosses a 40 mm gap a lone robot falls into, at the heading the stability gate
+    /// proves, and comes apart on the far platform (3-D world, lockstep).
     Demo {
         /// The link demo instead: 4 robots over loopback UDP track lines and circles.
         #[arg(long, conflicts_with = "realtime")]

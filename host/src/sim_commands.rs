@@ -44,7 +44,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             ..
         } => {
             eprintln!(
-                "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh, drive it 0.5 m, dissolve it and go to their own goals ({})",
+                "puzzlebot demo: 6 simulated robots (2 pilots, set down in one lane; the others scattered) form a 2-row mesh and drive it 0.5 m ({}); the mesh then crosses a 40 mm gap one robot falls into, and comes apart on the far side (3-D world, lockstep)",
                 if realtime {
                     "over loopback UDP in real time"
                 } else {
@@ -57,10 +57,29 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 assemble::DEMO_SCENARIO,
                 &puzzlebot_params::FleetParams::default().non_pilot.geometry,
             )?;
-            let report =
-                run_assembly(scenario, assemble::demo_fleet(), &runs, 400.0, !realtime).await?;
-            eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
+            let scenario = puzzlebot_host::crossing::demo::formation_part(scenario);
+            let sim = assemble::demo_fleet();
+            let kinds = sim.robots.iter().map(|r| (r.id, r.kind)).collect();
+            let report = run_assembly(scenario, sim, &runs, 400.0, !realtime).await?;
             finish_assembly(&report, json)?;
+            eprintln!("the formed mesh at a 40 mm gap in the 3-D world (the lab sets it down, a lone robot goes first)");
+            let (crossing, folder) = tokio::task::spawn_blocking(move || {
+                puzzlebot_host::crossing::demo::run(&report, &kinds).map(|c| (c, report.folder))
+            })
+            .await?
+            .map_err(|e| anyhow::anyhow!("crossing: {e}"))?;
+            let file = folder.join("crossing.json");
+            std::fs::write(&file, serde_json::to_string_pretty(&crossing)?)?;
+            if json {
+                eprint!("{}", crossing.render());
+            } else {
+                print!("{}", crossing.render());
+                println!("crossing   {}", file.display());
+            }
+            eprintln!("took {:.1} s", t0.elapsed().as_secs_f64());
+            if !crossing.ok() {
+                anyhow::bail!("the demo's crossing did not complete (see above)");
+            }
         }
         Cmd::Run {
             scenario: Some(path),

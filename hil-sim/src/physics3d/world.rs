@@ -482,6 +482,22 @@ impl World3d {
         c.geom.coords(b1, b2)
     }
 
+    /// Open the coupling between robots `a` and `b` (either order) by hand, as a person
+    /// lifts a mesh apart (THESIS 5.5.3); false when they hold no coupling.
+    pub fn release(&mut self, a: RobotId, b: RobotId) -> bool {
+        let ids = |c: &Joint3d| (self.robots[c.a].id, self.robots[c.b].id);
+        let Some(k) = self.couplings.iter().position(|c| {
+            let (x, y) = ids(c);
+            c.handle.is_some() && ((x, y) == (a, b) || (x, y) == (b, a))
+        }) else {
+            return false;
+        };
+        if let Some(h) = self.couplings[k].handle.take() {
+            self.joints.remove(h, true);
+        }
+        true
+    }
+
     /// Pin robot `id` to the world (a fixed body), e.g. the root of a cantilever.
     pub fn pin(&mut self, id: RobotId) -> bool {
         let Some(r) = self.robots.iter().find(|r| r.id == id) else {

@@ -154,7 +154,7 @@ fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
 }
 
 /// The formed assembly of `shape` with pilots `pilots`, its front robot at `front` heading
-/// `yaw`.
+/// `yaw`, held by every coupling of its layout ([`formation::layout`]).
 pub fn formed(
     shape: Shape,
     pilots: &[usize],
@@ -162,8 +162,22 @@ pub fn formed(
     front: [f64; 2],
     yaw: f64,
 ) -> PuzzleAssembly {
+    let links = formation::layout(shape, &params.non_pilot.geometry).1;
+    formed_with(shape, pilots, &links, params, front, yaw)
+}
+
+/// [`formed`] held by the couplings `links` only (row-major robot indices, as the layout's):
+/// an assembly as a formation left it, which may have closed fewer knobs than the layout has.
+pub fn formed_with(
+    shape: Shape,
+    pilots: &[usize],
+    links: &[(Link, usize, usize)],
+    params: &FleetParams,
+    front: [f64; 2],
+    yaw: f64,
+) -> PuzzleAssembly {
     let g = &params.non_pilot.geometry;
-    let (at, links) = formation::layout(shape, g);
+    let at = formation::layout(shape, g).0;
     let (s, c) = yaw.sin_cos();
     let robots: Vec<RobotPose> = at
         .iter()
@@ -216,6 +230,70 @@ pub fn plan(
             "--robots must be ≥ 1 and --pilots ≤ --robots (got {robots} and {pilots})"
         )));
     }
+    check_inputs(terrain, opt)?;
+    let g = &params.non_pilot.geometry;
+    let mut out = Vec::new();
+    for shape in Shape::candidates(robots) {
+        let links = formation::layout(shape, g).1;
+        for (place, set) in pilot_sets(shape, pilots) {
+            for &h in &opt.headings {
+                let Some(c) = candidate(terrain, params, shape, place, &set, &links, h, opt)?
+                else {
+                    continue;
+                };
+                out.push(c);
+            }
+        }
+    }
+    ranked(out, opt)
+}
+
+/// Rank the headings of one formed assembly: `shape` with pilots `pilots` (row-major
+/// indices) held by the couplings `links` (as [`formed_with`]); best first.
+pub fn plan_formed(
+    terrain: &Terrain,
+    params: &FleetParams,
+    shape: Shape,
+    pilots: &[usize],
+    links: &[(Link, usize, usize)],
+    opt: &CrossingOptions,
+) -> Result<Vec<Candidate>, PlanError> {
+    let n = shape.count();
+    if pilots
+        .iter()
+        .chain(links.iter().flat_map(|l| [&l.1, &l.2]))
+        .any(|&k| k >= n)
+    {
+        return Err(PlanError::Input(format!(
+            "{}: a pilot or coupling names a robot beyond its {n}",
+            shape.name()
+        )));
+    }
+    check_inputs(terrain, opt)?;
+    let place = place_of(shape, pilots);
+    let mut out = Vec::new();
+    for &h in &opt.headings {
+        if let Some(c) = candidate(terrain, params, shape, place, pilots, links, h, opt)? {
+            out.push(c);
+        }
+    }
+    ranked(out, opt)
+}
+
+/// Where `pilots` sit in `shape`.
+fn place_of(shape: Shape, pilots: &[usize]) -> PilotPlace {
+    let (_, per_row) = shape.rows();
+    let front = pilots.iter().any(|&k| k % per_row == 0);
+    let back = pilots.iter().any(|&k| k % per_row == per_row - 1);
+    match (pilots.is_empty(), front, back) {
+        (true, _, _) => PilotPlace::None,
+        (_, true, true) if per_row > 1 => PilotPlace::FrontBack,
+        (_, true, _) => PilotPlace::Front,
+        _ => PilotPlace::Back,
+    }
+}
+
+fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanError> {
     terrain
         .validate_solid()
         .map_err(|e| PlanError::Input(format!("terrain: {e}")))?;
@@ -228,21 +306,12 @@ pub fn plan(
             "headings: must be finite and within ±86°".into(),
         ));
     }
-    let g = &params.non_pilot.geometry;
-    let mut out = Vec::new();
-    for shape in Shape::candidates(robots) {
-        for (place, set) in pilot_sets(shape, pilots) {
-            for &h in &opt.headings {
-                let Some(c) = candidate(terrain, params, shape, place, &set, h, opt)? else {
-                    continue;
-                };
-                out.push(Candidate {
-                    diagonal_deg: formation::diagonal_angle(shape, g).to_degrees(),
-                    ..c
-                });
-            }
-        }
-    }
+    Ok(())
+}
+
+/// Best first: crossing candidates by their smallest stability margin, the others by how
+/// far short they stop.
+fn ranked(mut out: Vec<Candidate>, opt: &CrossingOptions) -> Result<Vec<Candidate>, PlanError> {
     if out.is_empty() {
         return Err(PlanError::Input(format!(
             "no start: no platform under y = {} ahead of a gap along +x",
@@ -265,12 +334,14 @@ fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
     t.platforms.iter().position(|pl| pl.contains(p))
 }
 
+#[allow(clippy::too_many_arguments)]
 fn candidate(
     terrain: &Terrain,
     params: &FleetParams,
     shape: Shape,
     place: PilotPlace,
     set: &[usize],
+    links: &[(Link, usize, usize)],
     heading: f64,
     opt: &CrossingOptions,
 ) -> Result<Option<Candidate>, PlanError> {
@@ -291,7 +362,7 @@ fn candidate(
     };
     // Place the front robot so the foremost body corner is `clearance` behind the edge.
     let g = &params.non_pilot.geometry;
-    let probe = formed(shape, set, params, [0.0, opt.start_y], heading);
+    let probe = formed_with(shape, set, links, params, [0.0, opt.start_y], heading);
     let (hl, hw) = (0.5 * f64::from(g.length), 0.5 * f64::from(g.width));
     let (s, c) = heading.sin_cos();
     let reach = probe
@@ -302,7 +373,7 @@ fn candidate(
         })
         .fold(f64::MIN, f64::max);
     let front = [edge - opt.clearance - reach, opt.start_y];
-    let a = formed(shape, set, params, front, heading);
+    let a = formed_with(shape, set, links, params, front, heading);
     // Advance along the heading until every centre stands on another platform.
     let across = |d: f64| {
         a.robots.iter().all(|r| {
@@ -353,7 +424,7 @@ fn candidate(
         pilot_robots: set.to_vec(),
         heading_deg: heading.to_degrees(),
         start: front,
-        diagonal_deg: 0.0,
+        diagonal_deg: formation::diagonal_angle(shape, g).to_degrees(),
         required,
         advance,
         margin,

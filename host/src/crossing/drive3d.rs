@@ -1,0 +1,437 @@
+//! The host's side of a crossing in the 3-D world: set a formed assembly down where the
+//! planner starts it, drive it along the planned heading through its firmware (every robot
+//! the same wheel speed), re-check it with the stability gate at every advance from its
+//! measured poses and stop it the moment the gate cannot prove it, then take it apart on the
+//! far platform.
+
+use super::formed::Formed;
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::RobotId;
+use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
+use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
+use puzzlebot_stability::crossing::{formed_with, Candidate};
+use puzzlebot_stability::gate::{evaluate, Verdict};
+use puzzlebot_stability::puzzlebot::{
+    assembly_level, build_model, Pair, PairKind, PuzzleAssembly, RobotPose,
+};
+use serde::Serialize;
+
+/// How the host drives a crossing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CrossSettings {
+    /// Driving speed (m/s): slow, so the crossing stays near the gate's static picture.
+    pub speed: f64,
+    /// Advance between two gate checks of the measured poses (m): the planner's scan step.
+    pub gate_every: f64,
+    /// Drive on past the planner's required advance (m): half a body, so the back robot
+    /// stands on the far platform and not on its edge.
+    pub overshoot: f64,
+    /// Standing time before driving and after stopping (s): the assembly settles.
+    pub settle_s: f64,
+    /// The 3-D world's settings.
+    pub world: Config3d,
+}
+
+impl Default for CrossSettings {
+    fn default() -> Self {
+        CrossSettings {
+            speed: 0.08,
+            gate_every: 0.005,
+            overshoot: 0.025,
+            settle_s: 0.5,
+            world: Config3d::default(),
+        }
+    }
+}
+
+/// Wheel speed (RPM) that drives a robot at `v` (m/s).
+pub fn rpm_for(v: f64, params: &FleetParams) -> f32 {
+    let r = f64::from(params.non_pilot.geometry.wheel_radius);
+    (v / r * 60.0 / std::f64::consts::TAU) as f32
+}
+
+/// The 3-D scenario of `formed` standing where candidate `c` starts, at its heading.
+pub fn scenario(
+    formed: &Formed,
+    c: &Candidate,
+    terrain: &Terrain,
+    params: &FleetParams,
+    seed: u64,
+) -> Scenario {
+    let a = formed_with(
+        formed.shape,
+        &formed.pilots(),
+        &formed.links,
+        params,
+        c.start,
+        c.heading_deg.to_radians(),
+    );
+    let robots = a
+        .robots
+        .iter()
+        .zip(&formed.ids)
+        .map(|(r, &id)| RobotSpec {
+            id,
+            kind: r.kind,
+            pose: [r.x, r.y, r.yaw],
+            impairments: None,
+            offline: false,
+            mismatch: Default::default(),
+        })
+        .collect();
+    let couplings = formed
+        .links
+        .iter()
+        .map(|&(l, a, b)| CouplingSpec {
+            kind: match l {
+                puzzlebot_params::formation::Link::Anchor => LinkKind::Anchor,
+                puzzlebot_params::formation::Link::Knob => LinkKind::Knob,
+            },
+            a: formed.ids[a],
+            b: formed.ids[b],
+        })
+        .collect();
+    Scenario {
+        seed,
+        robots,
+        couplings,
+        terrain: terrain.clone(),
+        params: params.clone(),
+        ..Scenario::default()
+    }
+}
+
+/// A connector that opened.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Broken {
+    /// Anchor or knob.
+    pub kind: LinkKind,
+    /// Robot with the anchor / knob.
+    pub a: RobotId,
+    /// Robot with the opening / hole.
+    pub b: RobotId,
+    /// Advance at the break (m).
+    pub advance: f64,
+}
+
+/// What a driven crossing did.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossOutcome {
+    /// Every robot stands on a platform other than the start one, none fell, no connector
+    /// opened, the gate never stopped it.
+    pub crossed: bool,
+    /// Advance of the assembly along the heading when it stopped (m).
+    pub advance: f64,
+    /// Simulated time of the drive (s).
+    pub drive_s: f64,
+    /// Gate checks of the measured poses.
+    pub gate_checks: usize,
+    /// Advance at which the gate could not prove the measured assembly, and its verdict.
+    pub gate_stop: Option<(f64, String)>,
+    /// Robots that fell, with the advance (m).
+    pub fell: Vec<(RobotId, f64)>,
+    /// Connectors that opened.
+    pub broke: Vec<Broken>,
+    /// Largest load a knob carried, as a share of its hold force.
+    pub peak_knob_share: f64,
+    /// Robots across (on another platform than the start one, at its height ± 2 mm).
+    pub across: usize,
+}
+
+/// The gate's verdict on the assembly as measured now (`None`: stable).
+pub fn gate_now(
+    states: &[RobotState3d],
+    held: &[(LinkKind, RobotId, RobotId)],
+    params: &FleetParams,
+    terrain: &Terrain,
+) -> Option<String> {
+    let robots: Vec<RobotPose> = states
+        .iter()
+        .map(|s| RobotPose {
+            kind: s.kind,
+            x: s.position[0],
+            y: s.position[1],
+            yaw: s.rpy[2],
+        })
+        .collect();
+    let index = |id: RobotId| states.iter().position(|s| s.id == id);
+    let g = &params.non_pilot.geometry;
+    let (side, half_w) = (f64::from(g.side_point_x), 0.5 * f64::from(g.width));
+    let pairs = held
+        .iter()
+        .filter_map(|&(k, a, b)| {
+            let (ia, ib) = (index(a)?, index(b)?);
+            Some(match k {
+                LinkKind::Anchor => Pair {
+                    a: ia,
+                    b: ib,
+                    kind: PairKind::Anchor,
+                    point: None,
+                },
+                LinkKind::Knob => {
+                    // The side point of `a` nearest `b`, as the planner places it.
+                    let (ra, rb) = (&robots[ia], &robots[ib]);
+                    let (s, c) = ra.yaw.sin_cos();
+                    let fwd = c * (rb.x - ra.x) + s * (rb.y - ra.y);
+                    Pair {
+                        a: ia,
+                        b: ib,
+                        kind: PairKind::Knob,
+                        point: Some([fwd.clamp(-side, side), half_w]),
+                    }
+                }
+            })
+        })
+        .collect();
+    let a = PuzzleAssembly { robots, pairs };
+    let Some(level) = assembly_level(&a, params, terrain) else {
+        return Some("no support under any robot".into());
+    };
+    match build_model(&a, params, terrain, level, [0.0, 0.0], false).map(|m| evaluate(&m)) {
+        Ok(Ok(r)) => match r.verdict {
+            Verdict::Stable => None,
+            v => Some(format!("{v:?}")),
+        },
+        Ok(Err(e)) => Some(format!("model: {e}")),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+/// Couplings still holding (kind, a, b).
+pub fn held(w: &World3d) -> Vec<(LinkKind, RobotId, RobotId)> {
+    w.couplings()
+        .into_iter()
+        .filter(|c| c.3)
+        .map(|c| (c.0, c.1, c.2))
+        .collect()
+}
+
+/// Index of the platform under `p`.
+fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
+    t.platforms.iter().position(|pl| pl.contains(p))
+}
+
+/// Drive the assembly of `w` (standing where `c` starts) across along `c`'s heading; stop
+/// once it advanced `c.required + overshoot`, or the gate cannot prove the measured
+/// assembly, a robot fell or a connector opened.
+pub fn cross(
+    w: &mut World3d,
+    c: &Candidate,
+    terrain: &Terrain,
+    params: &FleetParams,
+    s: &CrossSettings,
+) -> CrossOutcome {
+    w.run_for((s.settle_s * 1e6) as u64);
+    let heading = c.heading_deg.to_radians();
+    let dir = [heading.cos(), heading.sin()];
+    let start: Vec<[f64; 3]> = w.states().iter().map(|r| r.position).collect();
+    let start_platform = start
+        .first()
+        .and_then(|p| platform_at(terrain, [p[0], p[1]]));
+    let advance_of = |st: &[RobotState3d]| {
+        let n = st.len().max(1) as f64;
+        st.iter()
+            .zip(&start)
+            .map(|(r, p0)| (r.position[0] - p0[0]) * dir[0] + (r.position[1] - p0[1]) * dir[1])
+            .sum::<f64>()
+            / n
+    };
+    let goal = c.required + s.overshoot;
+    let t_limit = w.time_us() + ((2.0 * goal / s.speed + 2.0) * 1e6) as u64;
+    let t0 = w.time_us();
+    let rpm = rpm_for(s.speed, params);
+    let tick_us = 10_000; // 100 Hz host loop on the measured poses
+    let mut out = CrossOutcome {
+        crossed: false,
+        advance: 0.0,
+        drive_s: 0.0,
+        gate_checks: 0,
+        gate_stop: None,
+        fell: vec![],
+        broke: vec![],
+        peak_knob_share: 0.0,
+        across: 0,
+    };
+    let mut next_check = 0.0;
+    let mut seen_events = w.events().len();
+    w.command_all(Some([rpm, rpm]));
+    while w.time_us() < t_limit {
+        w.run_for(tick_us);
+        let st = w.states();
+        let d = advance_of(&st);
+        out.advance = d;
+        for e in &w.events()[seen_events..] {
+            match *e {
+                Event3d::Fell { id, .. } => out.fell.push((id, d)),
+                Event3d::Broke { kind, a, b, .. } => out.broke.push(Broken {
+                    kind,
+                    a,
+                    b,
+                    advance: d,
+                }),
+            }
+        }
+        seen_events = w.events().len();
+        if !out.fell.is_empty() || !out.broke.is_empty() || d >= goal {
+            break;
+        }
+        if d >= next_check {
+            out.gate_checks += 1;
+            if let Some(why) = gate_now(&st, &held(w), params, terrain) {
+                out.gate_stop = Some((d, why));
+                break;
+            }
+            next_check = d + s.gate_every;
+        }
+    }
+    w.command_all(Some([0.0, 0.0]));
+    out.drive_s = (w.time_us() - t0) as f64 * 1e-6;
+    w.run_for((s.settle_s * 1e6) as u64);
+    let knob = f64::from(params.non_pilot.coupling.knob_hold_force);
+    out.peak_knob_share = w
+        .couplings()
+        .iter()
+        .filter(|c| c.0 == LinkKind::Knob)
+        .map(|c| c.4 / knob)
+        .fold(0.0, f64::max);
+    out.across = w
+        .states()
+        .iter()
+        .filter(|r| {
+            platform_at(terrain, [r.position[0], r.position[1]]).is_some_and(|i| {
+                Some(i) != start_platform
+                    && (r.position[2] - terrain.platforms[i].height).abs() < 0.002
+            })
+        })
+        .count();
+    out.crossed = out.across == start.len()
+        && out.fell.is_empty()
+        && out.broke.is_empty()
+        && out.gate_stop.is_none();
+    out
+}
+
+/// How the assembly came apart on the far platform.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DissolveOutcome {
+    /// Couplings opened by hand.
+    pub opened: usize,
+    /// Smallest distance between two robots' centres before and after (m).
+    pub spacing: [f64; 2],
+    /// Robots that reached their goals within `tolerance`.
+    pub at_goal: usize,
+    /// Every robot still stands on the platform it started on, none fell.
+    pub on_platform: bool,
+}
+
+/// Take the assembly apart where it stands: a person lifts the couplings open (THESIS 5.5.3;
+/// here the simulator's hand), then every robot drives to its place in the assembly spread
+/// to twice its size about its centre, moved forward by half its length (the back row stays,
+/// away from the gap). Pilots drive straight only (THESIS 5.4.1), along their axis.
+pub fn dissolve(
+    w: &mut World3d,
+    heading: f64,
+    terrain: &Terrain,
+    params: &FleetParams,
+    duration_s: f64,
+) -> DissolveOutcome {
+    let tolerance = 0.01;
+    let before = w.states();
+    let mut opened = 0;
+    for (_, a, b) in held(w) {
+        opened += usize::from(w.release(a, b));
+    }
+    let n = before.len().max(1) as f64;
+    let centre = before.iter().fold([0.0, 0.0], |s, r| {
+        [s[0] + r.position[0] / n, s[1] + r.position[1] / n]
+    });
+    let dir = [heading.cos(), heading.sin()];
+    let along = |p: [f64; 3]| (p[0] - centre[0]) * dir[0] + (p[1] - centre[1]) * dir[1];
+    let back = before.iter().map(|r| along(r.position)).fold(0.0, f64::min);
+    let goals: Vec<[f64; 2]> = before
+        .iter()
+        .map(|r| {
+            let (dx, dy) = (r.position[0] - centre[0], r.position[1] - centre[1]);
+            let g = [
+                centre[0] + 2.0 * dx - back * dir[0],
+                centre[1] + 2.0 * dy - back * dir[1],
+            ];
+            if r.kind == RobotKind::Pilot {
+                // On its own axis: a pilot drives straight.
+                let (s, c) = r.rpy[2].sin_cos();
+                let f = (g[0] - r.position[0]) * c + (g[1] - r.position[1]) * s;
+                [r.position[0] + f * c, r.position[1] + f * s]
+            } else {
+                g
+            }
+        })
+        .collect();
+    let platforms: Vec<Option<usize>> = before
+        .iter()
+        .map(|r| platform_at(terrain, [r.position[0], r.position[1]]))
+        .collect();
+    let g = &params.non_pilot.geometry;
+    let half_base = 0.5 * f64::from(g.wheel_base);
+    let end = w.time_us() + (duration_s * 1e6) as u64;
+    while w.time_us() < end {
+        for (r, goal) in w.states().iter().zip(&goals) {
+            let (ex, ey) = (goal[0] - r.position[0], goal[1] - r.position[1]);
+            let yaw = r.rpy[2];
+            let fwd = ex * yaw.cos() + ey * yaw.sin();
+            let dist = ex.hypot(ey);
+            let (v, om) = if dist < 0.5 * tolerance {
+                (0.0, 0.0)
+            } else if r.kind == RobotKind::Pilot {
+                ((1.5 * fwd).clamp(-0.06, 0.06), 0.0)
+            } else {
+                // Unicycle go-to-goal, reversing when the goal is behind.
+                let mut bearing = ey.atan2(ex) - yaw;
+                bearing = bearing.sin().atan2(bearing.cos());
+                let sign = if bearing.abs() > std::f64::consts::FRAC_PI_2 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                let turn = if sign < 0.0 {
+                    let b = bearing + std::f64::consts::PI;
+                    b.sin().atan2(b.cos())
+                } else {
+                    bearing
+                };
+                (
+                    (1.5 * dist * turn.cos().max(0.0) * sign).clamp(-0.06, 0.06),
+                    (3.0 * turn).clamp(-2.0, 2.0),
+                )
+            };
+            let (l, rr) = (v - om * half_base, v + om * half_base);
+            w.command(r.id, Some([rpm_for(l, params), rpm_for(rr, params)]));
+        }
+        w.run_for(20_000);
+    }
+    w.command_all(Some([0.0, 0.0]));
+    w.run_for(300_000);
+    let after = w.states();
+    let spacing = |st: &[RobotState3d]| {
+        let mut m = f64::INFINITY;
+        for (i, a) in st.iter().enumerate() {
+            for b in &st[i + 1..] {
+                m = m.min((a.position[0] - b.position[0]).hypot(a.position[1] - b.position[1]));
+            }
+        }
+        m
+    };
+    DissolveOutcome {
+        opened,
+        spacing: [spacing(&before), spacing(&after)],
+        at_goal: after
+            .iter()
+            .zip(&goals)
+            .filter(|(r, g)| (r.position[0] - g[0]).hypot(r.position[1] - g[1]) < tolerance)
+            .count(),
+        on_platform: after
+            .iter()
+            .zip(&platforms)
+            .all(|(r, p)| !r.fallen && platform_at(terrain, [r.position[0], r.position[1]]) == *p),
+    }
+}
