@@ -197,7 +197,11 @@ pub fn formation_part(mut s: puzzlebot_assembly::Scenario) -> puzzlebot_assembly
 pub fn couplings_at_end(report: &AssemblyReport) -> Vec<(LinkKind, RobotId, RobotId)> {
     let mut held: Vec<(LinkKind, RobotId, RobotId)> = Vec::new();
     for c in &report.coupling_truth {
-        let key = (c.kind, c.a, c.b);
+        let kind = match c.kind {
+            crate::replay::timeline::Kind::Anchor => LinkKind::Anchor,
+            crate::replay::timeline::Kind::Knob => LinkKind::Knob,
+        };
+        let key = (kind, c.a, c.b);
         held.retain(|k| *k != key);
         if c.coupled {
             held.push(key);
