@@ -574,6 +574,18 @@ impl ControlLoop {
                 }
             }
             let truth = self.truth.as_ref().map(|f| f());
+            crate::live::observe(
+                t,
+                || match &truth {
+                    Some(m) => m.clone(),
+                    None => view
+                        .robots
+                        .iter()
+                        .filter_map(|r| r.pose.map(|p| (r.id, [p.x, p.y, p.theta])))
+                        .collect(),
+                },
+                || controller.progress(),
+            );
             for rv in &view.robots {
                 let Some(r) = robots.get_mut(&rv.id) else {
                     continue;

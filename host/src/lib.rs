@@ -21,6 +21,7 @@ pub mod fleet_provision;
 pub mod fleet_setup;
 pub mod fleet_update;
 pub mod link;
+pub mod live;
 #[cfg(feature = "sim")]
 pub mod lockstep;
 pub mod pose;

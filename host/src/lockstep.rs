@@ -386,6 +386,18 @@ impl Lockstep {
                 }
                 crate::record::observe(t, &self.world, &view, &sent);
                 crate::replay::progress::observe(t, || ctl.progress());
+                crate::live::observe(
+                    t,
+                    || {
+                        self.world
+                            .ground_truth()
+                            .robots
+                            .iter()
+                            .map(|r| (r.id, [r.pose.x, r.pose.y, r.pose.yaw]))
+                            .collect()
+                    },
+                    || ctl.progress(),
+                );
             }
             self.world.step();
             self.host.pump(&mut self.world);

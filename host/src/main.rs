@@ -156,6 +156,11 @@ enum Cmd {
         /// Print the run's summary as JSON on stdout (the table otherwise).
         #[arg(long, conflicts_with = "tracking")]
         json: bool,
+        /// Serve the run live in a browser on 127.0.0.1:PORT (without =PORT: any free port)
+        /// while it goes; the address is printed.
+        #[arg(long, value_name = "PORT", num_args = 0..=1, require_equals = true,
+              default_missing_value = "0", conflicts_with = "tracking")]
+        live: Option<u16>,
     },
     /// Write replay.html (a self-contained page that plays the run back in a browser) and
     /// milestones.svg (footprints at the milestones) into a run folder.
@@ -215,6 +220,11 @@ enum Cmd {
         /// Start even when the pre-flight check fails (logged with the reasons).
         #[arg(long)]
         force: bool,
+        /// Serve the run live in a browser on 127.0.0.1:PORT (without =PORT: any free port)
+        /// while it goes; the address is printed.
+        #[arg(long, value_name = "PORT", num_args = 0..=1, require_equals = true,
+              default_missing_value = "0")]
+        live: Option<u16>,
     },
     /// Run a simulated fleet for an external host (until Ctrl-C).
     Sim {
@@ -453,6 +463,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         realtime: false,
         assembly: false,
         json: false,
+        live: None,
     }) {
         cmd @ (Cmd::Demo { .. }
         | Cmd::Sim { .. }
@@ -471,10 +482,14 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             limit,
             wait,
             json,
+            live,
             ..
         } => {
             let fleet = Fleet::load(&fleet)?;
             let scenario = AsmScenario::from_file(&path, &fleet.config.params.non_pilot.geometry)?;
+            let title = format!("assembly-{}", scenario.name);
+            let info = || puzzlebot_host::live::info_of_fleet(&fleet, terrain.as_deref());
+            let live = puzzlebot_host::live::serve_requested(live, info, &title).await?;
             let opts = assemble::FleetRunOptions {
                 terrain,
                 max_duration: limit,
@@ -482,8 +497,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 force,
                 limits: None,
             };
-            let report = assemble::run_scenario_on_fleet(scenario, &fleet, &runs, &opts).await?;
-            finish_assembly(&report, json)?;
+            let report = assemble::run_scenario_on_fleet(scenario, &fleet, &runs, &opts).await;
+            puzzlebot_host::live::finish(live).await;
+            finish_assembly(&report?, json)?;
         }
         Cmd::Replay { folder } => {
             let w = puzzlebot_host::replay::write(&folder)?;
@@ -496,12 +512,16 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             speed,
             wait,
             force,
+            live,
             ..
         } => {
             let Some(fleet) = fleet else {
                 anyhow::bail!("`run` needs --fleet FILE or an assembly SCENARIO file");
             };
             let fleet = Fleet::load(&fleet)?;
+            let info = || puzzlebot_host::live::info_of_fleet(&fleet, None);
+            let live =
+                puzzlebot_host::live::serve_requested(live, info, &fleet.config.name).await?;
             let b = match behaviour {
                 BehaviourArg::Line => app::Behaviour::Line { length: size },
                 BehaviourArg::Circle => app::Behaviour::Circle { radius: size },
@@ -514,8 +534,9 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 &runs,
                 force,
             )
-            .await?;
-            print!("{}", app::describe(&report));
+            .await;
+            puzzlebot_host::live::finish(live).await;
+            print!("{}", app::describe(&report?));
         }
         Cmd::Fleet { cmd } => match cmd {
             FleetCmd::Init { dir } => {
@@ -718,5 +739,30 @@ mod tests {
         // The link demo has no real-time switch (it always is).
         let err = demo(&["demo", "--tracking", "--realtime"]).expect_err("conflict");
         assert!(err.contains("--realtime"), "{err}");
+    }
+
+    fn live_of(args: &[&str]) -> Option<u16> {
+        let cli = Cli::try_parse_from(std::iter::once("puzzlebot").chain(args.iter().copied()))
+            .expect("arguments parse");
+        match cli.command {
+            Some(Cmd::Demo { live, .. }) | Some(Cmd::Run { live, .. }) => live,
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn live_takes_an_optional_port_and_leaves_the_scenario_alone() {
+        assert_eq!(live_of(&["demo", "--realtime"]), None);
+        assert_eq!(live_of(&["demo", "--realtime", "--live"]), Some(0));
+        assert_eq!(live_of(&["demo", "--live=8080"]), Some(8080));
+        // `--live` before the scenario file does not take it for a port.
+        let cli = Cli::try_parse_from(["puzzlebot", "run", "--live", "line.toml"]).unwrap();
+        match cli.command {
+            Some(Cmd::Run { scenario, live, .. }) => {
+                assert_eq!(scenario, Some(PathBuf::from("line.toml")));
+                assert_eq!(live, Some(0));
+            }
+            _ => panic!("not a run"),
+        }
     }
 }

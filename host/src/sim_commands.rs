@@ -6,19 +6,25 @@ use std::path::PathBuf;
 use puzzlebot_assembly::Scenario as AsmScenario;
 use puzzlebot_host::assemble;
 use puzzlebot_host::config::Fleet;
+use puzzlebot_host::live;
+use puzzlebot_host::record::RunInfo;
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
 use super::{finish_assembly, Cmd, ExperimentCmd};
 
 /// An assembly scenario on a simulated fleet: the controller in lockstep with the simulator
-/// (on a blocking thread), or in real time over loopback UDP.
+/// (on a blocking thread), or in real time over loopback UDP; with `live`, its live page on
+/// that loopback port.
 async fn run_assembly(
     scenario: AsmScenario,
     sim: Scenario,
     runs: &std::path::Path,
     limit: f64,
     lockstep: bool,
+    live: Option<u16>,
 ) -> anyhow::Result<assemble::AssemblyReport> {
+    let title = format!("assembly-{}", scenario.name);
+    let live = live::serve_requested(live, || Ok(RunInfo::of_simulator(&sim)), &title).await?;
     let shown = puzzlebot_host::replay::progress::show();
     let report = if lockstep {
         let runs = runs.to_path_buf();
@@ -31,6 +37,7 @@ async fn run_assembly(
         assemble::run_scenario(scenario, sim, runs, limit, None).await?
     };
     drop(shown);
+    live::finish(live).await;
     Ok(report)
 }
 
@@ -41,6 +48,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             tracking: false,
             realtime,
             json,
+            live,
             ..
         } => {
             eprintln!(
@@ -60,7 +68,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             let scenario = puzzlebot_host::crossing::demo::formation_part(scenario);
             let sim = assemble::demo_fleet();
             let kinds = sim.robots.iter().map(|r| (r.id, r.kind)).collect();
-            let report = run_assembly(scenario, sim, &runs, 400.0, !realtime).await?;
+            let report = run_assembly(scenario, sim, &runs, 400.0, !realtime, live).await?;
             finish_assembly(&report, json)?;
             eprintln!("the formed mesh at a 40 mm gap in the 3-D world (the lab sets it down, a lone robot goes first)");
             let (crossing, folder) = tokio::task::spawn_blocking(move || {
@@ -90,6 +98,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             limit,
             lockstep,
             json,
+            live,
             ..
         } => {
             let params = puzzlebot_params::FleetParams::default();
@@ -98,7 +107,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 Some(p) => Scenario::from_file(&p)?,
                 None => assemble::scattered_fleet(robots, pilots, seed),
             };
-            let report = run_assembly(scenario, sim, &runs, limit, lockstep).await?;
+            let report = run_assembly(scenario, sim, &runs, limit, lockstep, live).await?;
             finish_assembly(&report, json)?;
         }
         Cmd::Experiment {

@@ -13,7 +13,7 @@ pub mod words;
 use std::path::{Path, PathBuf};
 
 pub use page::REPLAY_HTML;
-pub use progress::Progress;
+pub use progress::{PlanPair, Progress};
 pub use snapshots::MILESTONES_SVG;
 pub use summary::Summary;
 pub use timeline::Timeline;

@@ -131,6 +131,17 @@ pub fn html(tl: &Timeline, title: &str) -> String {
         .replace("__DATA__", &data)
 }
 
+/// The live page of a run that has not started, titled `title`: the same page as [`html`],
+/// which adds every sample the server at `events` (relative URL, server-sent events) streams.
+pub fn live_html(tl: &Timeline, title: &str, events: &str) -> String {
+    let mut d = data(tl);
+    d["live"] = json!(events);
+    let data = d.to_string().replace("</", "<\\/");
+    TEMPLATE
+        .replace("__TITLE__", &super::page_escape(title))
+        .replace("__DATA__", &data)
+}
+
 /// Write `dir/replay.html` for the timeline `tl` of run folder `dir`; returns its path.
 pub fn write(dir: &Path, tl: &Timeline) -> anyhow::Result<PathBuf> {
     let path = dir.join(REPLAY_HTML);

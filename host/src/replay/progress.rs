@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use puzzlebot_assembly::{PairStatus, RunState, ScenarioRunner};
+use puzzlebot_assembly::{PairStatus, PairType, RunState, ScenarioRunner};
+use puzzlebot_protocol::RobotId;
 
 /// What a run is doing, for its progress line.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -22,6 +23,21 @@ pub struct Progress {
     pub connected: usize,
     /// Pairs of the plan.
     pub pairs: usize,
+    /// Every pair of the plan with its status, by pair index (the live page draws them).
+    pub plan: Vec<PlanPair>,
+}
+
+/// One pair of the plan and its status.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PlanPair {
+    /// Robot with the anchor or knob.
+    pub a: RobotId,
+    /// Robot with the opening or hole.
+    pub b: RobotId,
+    /// Anchor-opening or knob-hole.
+    pub kind: PairType,
+    /// Status the host gives it.
+    pub status: PairStatus,
 }
 
 impl Progress {
@@ -42,6 +58,15 @@ impl Progress {
                 .filter(|p| p.status == PairStatus::Connected)
                 .count(),
             pairs: pairs.len(),
+            plan: pairs
+                .iter()
+                .map(|p| PlanPair {
+                    a: p.pair.a,
+                    b: p.pair.b,
+                    kind: p.pair.kind,
+                    status: p.status,
+                })
+                .collect(),
         }
     }
 
@@ -163,6 +188,7 @@ mod tests {
             label: "move 0.5 m".into(),
             connected: 4,
             pairs: 5,
+            plan: Vec::new(),
         };
         assert_eq!(
             p.line(52.149),

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::record::foxglove::yaw_of;
-use crate::record::{Recording, RUN_MCAP};
+use crate::record::{Recording, RunInfo, RUN_MCAP};
 
 /// One robot's body: id, kind and the geometry it is drawn with.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,6 +141,19 @@ impl Timeline {
             return Ok(Timeline::from_recording(&Recording::read(&mcap)?));
         }
         Timeline::from_telemetry(dir)
+    }
+
+    /// The run of `info` before its first sample: bodies and terrain, nothing else (a live
+    /// page starts from it; couplings come from the host's pairs).
+    pub fn of_info(info: &RunInfo) -> Timeline {
+        Timeline {
+            bodies: bodies_of(&info.robots, &info.params),
+            terrain: info.terrain.clone(),
+            samples: Vec::new(),
+            pairs: Vec::new(),
+            notes: Vec::new(),
+            couplings_from: CouplingSource::Host,
+        }
     }
 
     /// The timeline of a recording.
