@@ -303,6 +303,28 @@ enum ExperimentCmd {
         #[arg(long)]
         json: bool,
     },
+    /// THESIS 3.5.3 and 5.2.4 in the 3-D world: lines and meshes of 1-9 robots with 0-2
+    /// pilots over gaps (10-105 mm, level and 6 mm down), descending steps and headings
+    /// 0-50°, each run driven by its firmware, the gate's prediction beside it: the widest gap
+    /// and highest step crossed per configuration next to THESIS, plots in the run folder.
+    Crossing {
+        /// A sample in minutes (gaps every 10 mm, headings 0°, 20°, 40°, one run each)
+        /// instead of the whole protocol.
+        #[arg(long)]
+        quick: bool,
+        /// Runs per case (default: 5, or 1 with --quick).
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Only these robot counts (comma-separated, e.g. 4,8).
+        #[arg(long, value_delimiter = ',')]
+        robots: Option<Vec<usize>>,
+        /// Worker threads (0: one per core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Print the summary as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Randomized assembly episodes (fleet size 2-12, line / mesh / custom shapes, 0-2
     /// pilots, scattered starts, a move, half dissolved and dispersed) in the lockstep
     /// simulator: success per bucket with 95 % intervals, formation times, failure taxonomy.

@@ -127,6 +127,45 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
         }
         Cmd::Experiment {
             command:
+                ExperimentCmd::Crossing {
+                    quick,
+                    runs: n,
+                    robots,
+                    threads,
+                    json,
+                },
+        } => {
+            use puzzlebot_host::experiment::{crossing, crossing_report};
+            let mut opt = if quick {
+                crossing::Options::quick()
+            } else {
+                crossing::Options::full()
+            };
+            if let Some(n) = n {
+                if n == 0 {
+                    anyhow::bail!("--runs: at least 1");
+                }
+                opt.runs = n;
+            }
+            if let Some(r) = robots {
+                if r.is_empty() || r.iter().any(|&k| k == 0 || k > 12) {
+                    anyhow::bail!("--robots: counts within 1..=12, got {r:?}");
+                }
+                opt.robots = r;
+            }
+            opt.threads = threads;
+            let (s, text, dir) =
+                tokio::task::spawn_blocking(move || crossing_report::command(&opt, &runs, !json))
+                    .await??;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                print!("{text}");
+                println!("folder     {}", dir.display());
+            }
+        }
+        Cmd::Experiment {
+            command:
                 ExperimentCmd::Assemblies {
                     episodes,
                     profile,

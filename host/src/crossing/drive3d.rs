@@ -13,7 +13,7 @@ use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
 use puzzlebot_stability::crossing::{formed_with, Candidate};
 use puzzlebot_stability::gate::{evaluate, Verdict};
 use puzzlebot_stability::puzzlebot::{
-    assembly_level, build_model, Pair, PairKind, PuzzleAssembly, RobotPose,
+    assembly_level, build_model_with, Pair, PairKind, PuzzleAssembly, RobotPose,
 };
 use serde::Serialize;
 
@@ -29,6 +29,12 @@ pub struct CrossSettings {
     pub overshoot: f64,
     /// Standing time before driving and after stopping (s): the assembly settles.
     pub settle_s: f64,
+    /// Check the measured assembly with the gate every `gate_every` and stop when it cannot
+    /// prove it (the host's crossing); off for experiments that measure the physics alone.
+    pub live_gate: bool,
+    /// Stop at the first fall or opened connector (the host's crossing); experiments drive
+    /// on to count the robots that still reach the far platform.
+    pub stop_on_failure: bool,
     /// The 3-D world's settings.
     pub world: Config3d,
 }
@@ -40,6 +46,8 @@ impl Default for CrossSettings {
             gate_every: 0.005,
             overshoot: 0.025,
             settle_s: 0.5,
+            live_gate: true,
+            stop_on_failure: true,
             world: Config3d::default(),
         }
     }
@@ -188,7 +196,9 @@ pub fn gate_now(
     let Some(level) = assembly_level(&a, params, terrain) else {
         return Some("no support under any robot".into());
     };
-    match build_model(&a, params, terrain, level, [0.0, 0.0], false).map(|m| evaluate(&m)) {
+    match build_model_with(&a, params, terrain, level, [0.0, 0.0], false, true)
+        .map(|m| evaluate(&m))
+    {
         Ok(Ok(r)) => match r.verdict {
             Verdict::Stable => None,
             v => Some(format!("{v:?}")),
@@ -273,10 +283,11 @@ pub fn cross(
             }
         }
         seen_events = w.events().len();
-        if !out.fell.is_empty() || !out.broke.is_empty() || d >= goal {
+        let failed = !out.fell.is_empty() || !out.broke.is_empty();
+        if (failed && s.stop_on_failure) || d >= goal {
             break;
         }
-        if d >= next_check {
+        if s.live_gate && d >= next_check {
             out.gate_checks += 1;
             if let Some(why) = gate_now(&st, &held(w), params, terrain) {
                 out.gate_stop = Some((d, why));

@@ -4,6 +4,8 @@
 
 pub mod assemblies;
 pub mod coupling;
+pub mod crossing;
+pub mod crossing_report;
 pub mod episode;
 pub mod verdict;
 

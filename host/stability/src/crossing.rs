@@ -13,7 +13,7 @@
 
 use crate::gate::evaluate;
 use crate::puzzlebot::{
-    assembly_level, build_model, max_safe_advance_with, AdapterError, Advance, AdvanceOptions,
+    assembly_level, build_model_with, max_safe_advance_with, AdapterError, Advance, AdvanceOptions,
     LimitedBy, Pair, PairKind, PuzzleAssembly, RobotPose,
 };
 use puzzlebot_params::formation::{self, Link, Shape};
@@ -111,7 +111,7 @@ pub enum PlanError {
 }
 
 /// Pilot index sets of `shape` for `pilots` pilots, one per distinct placement.
-fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
+pub fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
     let (rows, per_row) = shape.rows();
     if pilots == 0 {
         return vec![(PilotPlace::None, vec![])];
@@ -397,6 +397,7 @@ fn candidate(
         opt.step,
         AdvanceOptions {
             rigid_couplings: false,
+            anchor_pitch_free: true,
             horizon: required + 0.01,
         },
     )
@@ -449,7 +450,7 @@ fn sampled_margin(
     let mut worst: Option<f64> = None;
     for k in 0..=n {
         let d = (k as f64 * step).min(distance);
-        let m = build_model(a, params, terrain, level, [c * d, s * d], false)?;
+        let m = build_model_with(a, params, terrain, level, [c * d, s * d], false, true)?;
         if let Some(margin) = evaluate(&m)?.margin {
             worst = Some(worst.map_or(margin, |w: f64| w.min(margin)));
         }

@@ -73,6 +73,11 @@ pub struct PuzzleAssembly {
 pub struct AdvanceOptions {
     /// Treat couplings as unbreakable (rigid mesh): only tipping/sliding limits the advance.
     pub rigid_couplings: bool,
+    /// A soft anchor carries no pitch couple: it swings freely within its ±0.5 rad pitch
+    /// range (THESIS 4.2.2), so a robot past an edge hangs on it instead of being held level,
+    /// as in the 3-D physics. The crossing planner sets it; off, the anchor is modelled as
+    /// holding pitch up to its box limit.
+    pub anchor_pitch_free: bool,
     /// Search no further than this (m).
     pub horizon: f64,
 }
@@ -81,6 +86,7 @@ impl Default for AdvanceOptions {
     fn default() -> Self {
         AdvanceOptions {
             rigid_couplings: false,
+            anchor_pitch_free: false,
             horizon: 1.0,
         }
     }
@@ -239,6 +245,20 @@ pub fn build_model(
     offset: [f64; 2],
     rigid: bool,
 ) -> Result<Assembly, AdapterError> {
+    build_model_with(a, params, terrain, level, offset, rigid, false)
+}
+
+/// [`build_model`], the anchor's pitch couple released when `anchor_pitch_free`
+/// ([`AdvanceOptions::anchor_pitch_free`]).
+pub fn build_model_with(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    level: f64,
+    offset: [f64; 2],
+    rigid: bool,
+    anchor_pitch_free: bool,
+) -> Result<Assembly, AdapterError> {
     check(a)?;
     let t = touches(a, params, terrain, level, offset);
     let mut modules = Vec::with_capacity(a.robots.len());
@@ -281,7 +301,7 @@ pub fn build_model(
     let g = &params.non_pilot.geometry;
     let lever = 0.5 * g.height as f64;
     let weights = [1.0, 1.0, 1.0, 1.0 / lever, 1.0 / lever, 1.0 / lever];
-    let (anchor, knob) = if rigid {
+    let (mut anchor, knob) = if rigid {
         (Limits6::default(), Limits6::default())
     } else {
         let ah = c.anchor_hold_force as f64;
@@ -290,6 +310,10 @@ pub fn build_model(
         anchor.mx = Some(0.0); // yaw about the vertical local x axis: free
         (anchor, Limits6::uniform(kh, kh * lever))
     };
+    if anchor_pitch_free {
+        // Pitch about the horizontal axis across the chain (local y; x up, z into the child).
+        anchor.my = Some(0.0);
+    }
     for (name, max) in [("anchor", anchor), ("knob", knob)] {
         connectors.insert(
             name.to_string(),
@@ -408,7 +432,15 @@ pub fn max_safe_advance_with(
         if let Some(robot) = st.iter().position(|r| r.contains(&Touch::Blocked)) {
             return Ok(Some(LimitedBy::StepUp { robot }));
         }
-        let m = build_model(assembly, params, terrain, level, at(d), opt.rigid_couplings)?;
+        let m = build_model_with(
+            assembly,
+            params,
+            terrain,
+            level,
+            at(d),
+            opt.rigid_couplings,
+            opt.anchor_pitch_free,
+        )?;
         let rep = evaluate(&m)?;
         Ok(match rep.verdict {
             Verdict::Stable => None,

@@ -75,6 +75,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     let edge = 0.3;
     let opt = AdvanceOptions {
         rigid_couplings: true,
+        anchor_pitch_free: false,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -120,6 +121,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
     let edge = 0.2;
     let opt = AdvanceOptions {
         rigid_couplings: true,
+        anchor_pitch_free: false,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -181,6 +183,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
         0.01,
         AdvanceOptions {
             rigid_couplings: true,
+            anchor_pitch_free: false,
             horizon: 1.0,
         },
     )

@@ -1,0 +1,409 @@
+//! `puzzlebot experiment crossing`: THESIS's gap-crossing protocol (3.5.3, 5.2.4) in the 3-D
+//! world. Lines and meshes of 1, 2, 4, 6, 8 and 9 robots with no pilot, one pilot in front or
+//! at the back, or two (front and back); gaps of 10–105 mm in 5 mm steps between platforms of
+//! equal height and with the far one 6 mm lower; descending steps in 6 mm increments; headings
+//! 0–50° in 10°; 5 runs each with a seeded jitter of the start pose. Each run is driven
+//! through the firmware without the gate (the physics alone decides), and the gate's
+//! prediction for the same start stands beside it ([`super::crossing_report`]).
+
+use crate::crossing::drive3d::{self, CrossSettings};
+use crate::crossing::formed::Formed;
+use puzzlebot_params::formation::{self, Shape};
+use puzzlebot_params::terrain::{Platform, Terrain};
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_sim::physics3d::{assembly::jitter, World3d};
+use puzzlebot_stability::crossing::{formed, pilot_sets, plan_formed, CrossingOptions};
+use puzzlebot_stability::puzzlebot::{max_safe_advance_with, AdvanceOptions};
+use serde::Serialize;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// Height difference of THESIS 3.5.3's gaps (m): the far platform 6 mm lower.
+pub const GAP_DROP: f64 = 0.006;
+/// Increment of the descending steps (m), THESIS 5.2.4.
+pub const STEP_INCREMENT: f64 = 0.006;
+/// Completion above which an obstacle counts as crossed (THESIS 5.2.4: > 80 %).
+pub const CROSSED: f64 = 0.8;
+/// Start-pose jitter of repeated runs: position (m) and heading (rad).
+pub const JITTER: (f64, f64) = (0.002, 0.02);
+
+/// What to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Robot counts.
+    pub robots: Vec<usize>,
+    /// Gap widths (m).
+    pub gaps: Vec<f64>,
+    /// Step heights (m).
+    pub steps: Vec<f64>,
+    /// Headings (degrees) for every configuration.
+    pub headings: Vec<f64>,
+    /// Runs per case.
+    pub runs: usize,
+    /// Worker threads (0: one per core).
+    pub threads: usize,
+    /// Base seed.
+    pub seed: u64,
+}
+
+impl Options {
+    /// THESIS's whole protocol.
+    pub fn full() -> Options {
+        Options {
+            robots: vec![1, 2, 4, 6, 8, 9],
+            gaps: (0..20).map(|k| 0.010 + 0.005 * f64::from(k)).collect(),
+            steps: (1..=10).map(|k| STEP_INCREMENT * f64::from(k)).collect(),
+            headings: (0..6).map(|k| 10.0 * f64::from(k)).collect(),
+            runs: 5,
+            threads: 0,
+            seed: 1,
+        }
+    }
+
+    /// A sample in minutes: gaps every 10 mm, steps up to 36 mm, headings 0°, 20° and 40°,
+    /// one run each.
+    pub fn quick() -> Options {
+        Options {
+            gaps: (0..10).map(|k| 0.010 + 0.010 * f64::from(k)).collect(),
+            steps: (1..=6).map(|k| STEP_INCREMENT * f64::from(k)).collect(),
+            headings: vec![0.0, 20.0, 40.0],
+            runs: 1,
+            ..Options::full()
+        }
+    }
+}
+
+/// A formed assembly of the protocol.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Config {
+    /// `line 4`, `mesh 2x2`.
+    pub shape: String,
+    /// Robots.
+    pub robots: usize,
+    /// Line or mesh.
+    pub mesh: bool,
+    /// `none`, `front`, `back`, `front+back`.
+    pub pilots: String,
+    /// Pilot places (row-major, front first).
+    pub pilot_places: Vec<usize>,
+    /// Length of the assembly along its rows (m).
+    pub length: f64,
+    /// Diagonal angle α (degrees).
+    pub alpha_deg: f64,
+    #[serde(skip)]
+    shape_value: Option<Shape>,
+}
+
+/// The configurations of `robots` robots: a line and the 2-row mesh (3 × 3 for nine), each
+/// with no pilot, one in front, one at the back, and two (front and back).
+pub fn configs(robots: &[usize], params: &FleetParams) -> Vec<Config> {
+    let g = &params.non_pilot.geometry;
+    let mut out = Vec::new();
+    for &n in robots {
+        let mut shapes = vec![Shape::Line(n)];
+        if n >= 4 {
+            let rows = if n % 2 == 0 { 2 } else { 3 };
+            if n % rows == 0 {
+                shapes.push(Shape::Mesh {
+                    rows,
+                    per_row: n / rows,
+                });
+            }
+        }
+        for shape in shapes {
+            let (_, per_row) = shape.rows();
+            let mut sets: Vec<(String, Vec<usize>)> = vec![("none".into(), vec![])];
+            sets.push(("front".into(), vec![0]));
+            if per_row > 1 {
+                sets.push(("back".into(), vec![per_row - 1]));
+                let two = pilot_sets(shape, 2)
+                    .into_iter()
+                    .map(|(_, s)| s)
+                    .find(|s| s.contains(&0) && s.contains(&(per_row - 1)))
+                    .unwrap_or_else(|| vec![0, per_row - 1]);
+                sets.push(("front+back".into(), two));
+            }
+            for (name, set) in sets {
+                out.push(Config {
+                    shape: shape.name(),
+                    robots: n,
+                    mesh: matches!(shape, Shape::Mesh { .. }),
+                    pilots: name,
+                    pilot_places: set,
+                    length: formation::footprint(shape, g)[0],
+                    alpha_deg: formation::diagonal_angle(shape, g).to_degrees(),
+                    shape_value: Some(shape),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// An obstacle: a gap of `width` with the far platform `drop` lower (a step when the width
+/// is nil).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Obstacle {
+    /// Gap width (m).
+    pub width: f64,
+    /// How much lower the far platform is (m).
+    pub drop: f64,
+}
+
+impl Obstacle {
+    /// A descending step (the platforms 0.5 mm apart: they may not overlap).
+    pub fn step(drop: f64) -> Obstacle {
+        Obstacle { width: 0.0, drop }
+    }
+
+    /// Its terrain: the near platform up to x = 0, the far one beyond the gap.
+    pub fn terrain(&self) -> Terrain {
+        let w = self.width.max(0.0005);
+        Terrain {
+            platforms: vec![
+                Platform::rect("near", [-1.5, -1.5], [0.0, 1.5], self.drop),
+                Platform::rect("far", [w, -1.5], [w + 1.5, 1.5], 0.0),
+            ],
+        }
+    }
+}
+
+/// One run's result.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossRun {
+    /// Index into the configurations.
+    pub config: usize,
+    /// The obstacle.
+    pub obstacle: Obstacle,
+    /// Heading (degrees).
+    pub heading_deg: f64,
+    /// Run number.
+    pub run: usize,
+    /// Share of the robots on the far platform at the end.
+    pub completion: f64,
+    /// Advance the crossing needs (m).
+    pub required: f64,
+    /// The gate's proven advance from the same start (m), measured couplings.
+    pub gate_advance: f64,
+    /// What limits the gate there.
+    pub gate_limited_by: String,
+    /// The gate's proven advance with unbreakable couplings (m).
+    pub rigid_advance: f64,
+    /// Advance at which a robot fell (in runs that end with robots short of the far
+    /// platform) or a connector opened in the physics (m).
+    pub physics_fail: Option<f64>,
+    /// What failed first: `fell` or `broke`.
+    pub fail_kind: Option<String>,
+}
+
+impl CrossRun {
+    /// The gate called safe an advance at which the physics failed.
+    pub fn gate_overconfident(&self) -> bool {
+        self.physics_fail
+            .is_some_and(|f| self.gate_advance > f + 1e-3)
+    }
+}
+
+struct Case {
+    config: usize,
+    obstacle: Obstacle,
+    heading_deg: f64,
+}
+
+/// Every case of `opt` (configurations × obstacles × headings).
+fn cases(opt: &Options, configs: &[Config]) -> Vec<Case> {
+    let mut obstacles: Vec<Obstacle> = Vec::new();
+    for &w in &opt.gaps {
+        obstacles.push(Obstacle {
+            width: w,
+            drop: GAP_DROP,
+        });
+        obstacles.push(Obstacle {
+            width: w,
+            drop: 0.0,
+        });
+    }
+    obstacles.extend(opt.steps.iter().map(|&h| Obstacle::step(h)));
+    let mut out = Vec::new();
+    for c in 0..configs.len() {
+        for &o in &obstacles {
+            for &h in &opt.headings {
+                out.push(Case {
+                    config: c,
+                    obstacle: o,
+                    heading_deg: h,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// Run one case: the gate's prediction once, then `runs` jittered physics runs.
+fn run_case(
+    case: &Case,
+    cfg: &Config,
+    runs: usize,
+    seed: u64,
+    params: &FleetParams,
+) -> Result<Vec<CrossRun>, String> {
+    let shape = cfg.shape_value.ok_or("configuration without a shape")?;
+    let links = formation::layout(shape, &params.non_pilot.geometry).1;
+    let terrain = case.obstacle.terrain();
+    let heading = case.heading_deg.to_radians();
+    let opt = CrossingOptions {
+        headings: vec![heading],
+        ..CrossingOptions::default()
+    };
+    let cand = plan_formed(&terrain, params, shape, &cfg.pilot_places, &links, &opt)
+        .map_err(|e| e.to_string())?
+        .remove(0);
+    let a = formed(shape, &cfg.pilot_places, params, cand.start, heading);
+    let rigid = max_safe_advance_with(
+        &a,
+        params,
+        &terrain,
+        heading,
+        opt.step,
+        AdvanceOptions {
+            rigid_couplings: true,
+            anchor_pitch_free: false,
+            horizon: cand.required + 0.01,
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let n = shape.count();
+    let formed_asm = Formed {
+        shape,
+        ids: (1..=n as u16).collect(),
+        kinds: (0..n)
+            .map(|k| {
+                if cfg.pilot_places.contains(&k) {
+                    RobotKind::Pilot
+                } else {
+                    RobotKind::NonPilot
+                }
+            })
+            .collect(),
+        links,
+        fit_error: 0.0,
+    };
+    let settings = CrossSettings {
+        speed: 0.1,
+        live_gate: false,
+        stop_on_failure: false,
+        ..CrossSettings::default()
+    };
+    let mut out = Vec::with_capacity(runs);
+    for run in 0..runs {
+        let mut s = drive3d::scenario(&formed_asm, &cand, &terrain, params, seed + run as u64);
+        if run > 0 {
+            jitter(&mut s, JITTER.0, JITTER.1);
+        }
+        let mut w = World3d::new(&s, settings.world).map_err(|e| e.to_string())?;
+        let o = drive3d::cross(&mut w, &cand, &terrain, params, &settings);
+        // A robot that dips below the platform and climbs back out (a front pilot) has not
+        // failed: a fall counts when the run ends with robots short of the far platform.
+        let fell = o.fell.first().map(|f| f.1).filter(|_| o.across < n);
+        let broke = o.broke.first().map(|b| b.advance);
+        let (physics_fail, fail_kind) = match (fell, broke) {
+            (Some(f), Some(b)) if b < f => (Some(b), Some("broke")),
+            (Some(f), _) => (Some(f), Some("fell")),
+            (None, Some(b)) => (Some(b), Some("broke")),
+            (None, None) => (None, None),
+        };
+        out.push(CrossRun {
+            config: case.config,
+            obstacle: case.obstacle,
+            heading_deg: case.heading_deg,
+            run,
+            completion: o.across as f64 / n as f64,
+            required: cand.required,
+            gate_advance: cand.advance.distance,
+            gate_limited_by: format!("{:?}", cand.advance.limited_by),
+            rigid_advance: rigid.distance,
+            physics_fail,
+            fail_kind: fail_kind.map(str::to_string),
+        });
+    }
+    Ok(out)
+}
+
+/// Every run of the experiment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossingData {
+    /// Configurations.
+    pub configs: Vec<Config>,
+    /// Runs.
+    pub runs: Vec<CrossRun>,
+    /// Cases the planner could not start (no start platform, bad input), with the reason.
+    pub skipped: Vec<String>,
+    /// Wall time (s).
+    pub wall_s: f64,
+}
+
+/// Run the experiment on `threads` workers; `on_case` after each case.
+pub fn run(opt: &Options, on_case: &(dyn Fn() + Sync)) -> CrossingData {
+    let params = FleetParams::default();
+    let configs = configs(&opt.robots, &params);
+    let cases = cases(opt, &configs);
+    let t0 = std::time::Instant::now();
+    let threads = match opt.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    }
+    .min(cases.len().max(1));
+    let next = AtomicUsize::new(0);
+    let results = Mutex::new((Vec::new(), Vec::new()));
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(case) = cases.get(i) else { break };
+                let cfg = &configs[case.config];
+                let r = run_case(case, cfg, opt.runs.max(1), opt.seed, &params);
+                on_case();
+                if let Ok(mut acc) = results.lock() {
+                    match r {
+                        Ok(v) => acc.0.extend(v),
+                        Err(e) => acc.1.push(format!(
+                            "{} {} w {:.0} mm drop {:.0} mm θ {}°: {e}",
+                            cfg.shape,
+                            cfg.pilots,
+                            case.obstacle.width * 1e3,
+                            case.obstacle.drop * 1e3,
+                            case.heading_deg
+                        )),
+                    }
+                }
+            });
+        }
+    });
+    let (mut runs, skipped) = results.into_inner().unwrap_or_default();
+    runs.sort_by(|a, b| {
+        (
+            a.config,
+            a.obstacle.drop.to_bits(),
+            a.obstacle.width.to_bits(),
+        )
+            .cmp(&(
+                b.config,
+                b.obstacle.drop.to_bits(),
+                b.obstacle.width.to_bits(),
+            ))
+            .then(a.heading_deg.total_cmp(&b.heading_deg))
+            .then(a.run.cmp(&b.run))
+    });
+    CrossingData {
+        configs,
+        runs,
+        skipped,
+        wall_s: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// Number of cases (progress bar length).
+pub fn case_count(opt: &Options) -> usize {
+    let params = FleetParams::default();
+    cases(opt, &configs(&opt.robots, &params)).len()
+}
