@@ -304,4 +304,73 @@ mod tests {
             "{msg}"
         );
     }
+
+    #[test]
+    fn every_bad_input_is_one_line_naming_its_file() {
+        let d = dir().join("bad-inputs");
+        std::fs::create_dir_all(&d).expect("dir");
+        write_new_key(&d.join("fleet.key")).expect("key");
+        let p = d.join("fleet.toml");
+        let load = |text: &str| {
+            std::fs::write(&p, text).expect("write");
+            let msg = Fleet::load(&p).expect_err("refused").to_string();
+            assert_eq!(msg.lines().count(), 1, "one line: {msg}");
+            msg
+        };
+        // An id out of range for a robot id (u16), or negative.
+        for id in ["70000", "-1"] {
+            let msg = load(&format!(
+                "key_file = \"fleet.key\"\n[[robots]]\nid = {id}\nkind = \"Pilot\"\n"
+            ));
+            assert!(
+                msg.contains("fleet.toml:3:") && msg.contains("u16"),
+                "{msg}"
+            );
+        }
+        // A key of the right length that is not hex, and one too long.
+        for key in ["g".repeat(64), "ab".repeat(33)] {
+            std::fs::write(d.join("odd.key"), &key).expect("write");
+            let msg = load("key_file = \"odd.key\"\n");
+            assert!(
+                msg.contains("odd.key: fleet key must be exactly 64 hexadecimal"),
+                "{msg}"
+            );
+            assert!(!msg.contains(&key[..8]), "the key is not echoed: {msg}");
+        }
+        // A missing config, a missing key file, a key that cannot be read.
+        let msg = Fleet::load(&d.join("absent.toml"))
+            .expect_err("missing")
+            .to_string();
+        assert!(
+            msg.ends_with("absent.toml: cannot read: No such file or directory (os error 2)"),
+            "{msg}"
+        );
+        let msg = load("key_file = \"absent.key\"\n");
+        assert!(
+            msg.contains("absent.key") && msg.contains("cannot read fleet key"),
+            "{msg}"
+        );
+        std::fs::create_dir_all(d.join("dir.key")).expect("dir");
+        let msg = load("key_file = \"dir.key\"\n");
+        assert!(
+            msg.contains("dir.key") && msg.contains("cannot read fleet key"),
+            "{msg}"
+        );
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let locked = d.join("locked.key");
+            write_new_key(&locked).expect("key");
+            std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o000))
+                .expect("chmod");
+            // Root reads any file: the refusal is only observable for other users.
+            if std::fs::read(&locked).is_err() {
+                let msg = load("key_file = \"locked.key\"\n");
+                assert!(
+                    msg.contains("locked.key: cannot read fleet key") && msg.contains("ermission"),
+                    "{msg}"
+                );
+            }
+        }
+    }
 }

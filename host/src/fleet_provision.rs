@@ -49,12 +49,12 @@ pub enum ProvisionError {
         message: String,
     },
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// Why.
-        source: std::io::Error,
+        /// Why (in the message, so it is not repeated as an error source).
+        cause: std::io::Error,
     },
 }
 
@@ -157,9 +157,9 @@ fn parse_host(s: &str) -> Result<SocketAddrV4, ProvisionError> {
 /// Wi-Fi password); written beside it and renamed, so a failure leaves no partial file.
 pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ProvisionError> {
     use std::io::Write;
-    let io = |source| ProvisionError::Io {
+    let io = |cause| ProvisionError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let name = path
         .file_name()
@@ -189,9 +189,9 @@ pub fn write_blob(path: &Path, blob: &[u8]) -> Result<(), ProvisionError> {
 pub fn read_password(file: Option<&Path>) -> Result<String, ProvisionError> {
     match file {
         Some(f) => {
-            let text = std::fs::read_to_string(f).map_err(|source| ProvisionError::Io {
+            let text = std::fs::read_to_string(f).map_err(|cause| ProvisionError::Io {
                 path: f.to_path_buf(),
-                source,
+                cause,
             })?;
             Ok(text.lines().next().unwrap_or("").to_string())
         }

@@ -22,12 +22,12 @@ pub enum SetupError {
     #[error("{0}: already exists; not overwritten (remove it, or choose another folder)")]
     Exists(PathBuf),
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// Why.
-        source: std::io::Error,
+        /// Why (in the message, so it is not repeated as an error source).
+        cause: std::io::Error,
     },
     /// The fleet config or its key is not usable.
     #[error(transparent)]
@@ -82,9 +82,9 @@ pub fn init(dir: &Path) -> Result<(PathBuf, PathBuf), SetupError> {
             return Err(SetupError::Exists(p.clone()));
         }
     }
-    std::fs::create_dir_all(dir).map_err(|source| SetupError::Io {
+    std::fs::create_dir_all(dir).map_err(|cause| SetupError::Io {
         path: dir.to_path_buf(),
-        source,
+        cause,
     })?;
     let mut bytes = [0u8; 32];
     rand::fill(&mut bytes);
@@ -125,9 +125,9 @@ fn write_new(path: &Path, text: &str, mode: u32) -> Result<(), SetupError> {
     }
     #[cfg(not(unix))]
     let _ = mode;
-    let io = |source| SetupError::Io {
+    let io = |cause| SetupError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let mut f = open.open(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::AlreadyExists {
@@ -157,7 +157,7 @@ pub fn add_robot(fleet: &Path, id: RobotId, kind: RobotKind) -> Result<(), Setup
     }
     let io = |path: &Path| {
         let path = path.to_path_buf();
-        move |source| SetupError::Io { path, source }
+        move |cause| SetupError::Io { path, cause }
     };
     let mut text = std::fs::read_to_string(fleet).map_err(io(fleet))?;
     if !text.is_empty() && !text.ends_with('\n') {

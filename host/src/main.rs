@@ -604,6 +604,8 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
                 fleet,
             } => {
                 use puzzlebot_host::fleet_provision as prov;
+                // The config and its key first: a bad one is reported before any note.
+                Fleet::load(&fleet)?;
                 let req = prov::Request {
                     id,
                     ssid,

@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// The file could not be read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, so it is not repeated as an error source).
+        cause: std::io::Error,
     },
     /// The file is not valid TOML or a field is wrong.
     #[error("{path}:{line}:{column}: {message}")]
@@ -45,9 +45,9 @@ pub fn from_toml_str<T: serde::de::DeserializeOwned>(
 
 /// Read and parse a TOML file into `T`.
 pub fn from_toml_file<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, LoadError> {
-    let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+    let text = std::fs::read_to_string(path).map_err(|cause| LoadError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     })?;
     from_toml_str(path, &text)
 }

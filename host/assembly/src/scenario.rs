@@ -379,10 +379,10 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 impl Scenario {
     /// Load a scenario file; shape files named in `form` are resolved relative to it.
     pub fn from_file(path: &Path, g: &Geometry) -> Result<Scenario, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|source| {
+        let text = std::fs::read_to_string(path).map_err(|cause| {
             ScenarioError::Load(puzzlebot_params::load::LoadError::Io {
                 path: path.to_path_buf(),
-                source,
+                cause,
             })
         })?;
         Scenario::from_toml_str(path, &text, g)

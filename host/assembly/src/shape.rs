@@ -322,10 +322,10 @@ impl Shape {
             .and_then(|e| e.to_str())
             .is_some_and(|e| e.eq_ignore_ascii_case("json"));
         let file: ShapeFile = if is_json {
-            let text = std::fs::read_to_string(path).map_err(|source| {
+            let text = std::fs::read_to_string(path).map_err(|cause| {
                 ShapeError::Load(puzzlebot_params::load::LoadError::Io {
                     path: path.to_path_buf(),
-                    source,
+                    cause,
                 })
             })?;
             serde_json::from_str(&text).map_err(|e| ShapeError::Json {
