@@ -11,10 +11,6 @@ pub const MAKE_WAY_MARGIN: f64 = 0.03;
 /// it stands (m).
 pub const STANDOFF_MARGIN: f64 = 0.01;
 
-/// Half-width of an anchor approach's corridor that another robot's centre blocks (m): half a
-/// body and 10 mm; robots beside the axis (a mesh's other row, 50 mm off) do not block it.
-const AXIS_BLOCK_HALF_WIDTH: f64 = 0.035;
-
 /// Half-width of a lane train's corridor that another robot's centre blocks (m): a body
 /// (two half bodies) and 5 mm.
 const LANE_BLOCK_HALF_WIDTH: f64 = 0.055;
@@ -155,8 +151,12 @@ impl Coordinator {
                 .map(|(&m, _)| m)
         };
         let lone = |r: RobotId| self.lone_non_pilot(r, segments);
+        // An assembly, a pilot, or the seed a grown assembly starts from stays where it is.
+        let seed = self.grow_home(segments);
         let holds = |r: RobotId| {
-            members(r).count() > 1 || members(r).all(|m| self.kind_of(m) == RobotKind::Pilot)
+            members(r).count() > 1
+                || members(r).all(|m| self.kind_of(m) == RobotKind::Pilot)
+                || seed == Some(r)
         };
         if lone(p.a) && holds(p.b) {
             Some((p.a, p.b))
@@ -169,7 +169,7 @@ impl Coordinator {
 
     /// Whether anchor pair `i` would be joined by a lone robot's staged approach
     /// ([`Coordinator::lone_approach`]) while another robot stands on the approach axis
-    /// (centre within [`AXIS_BLOCK_HALF_WIDTH`] of it) nearer to the final place than the
+    /// (centre within a body width of it: the two bodies overlap) nearer to the final place than the
     /// stand-off plus the route clearance: the stand-off would move out past that robot and
     /// the approach run through it.
     pub(super) fn approach_blocked(&self, i: usize, segments: &BTreeMap<RobotId, usize>) -> bool {
@@ -222,7 +222,7 @@ impl Coordinator {
                 let half = if train {
                     LANE_BLOCK_HALF_WIDTH
                 } else {
-                    AXIS_BLOCK_HALF_WIDTH
+                    f64::from(self.geometry.width)
                 };
                 let on_axis = out > 0.0 && out < reach && o[1].abs() < half;
                 // Too near the stand-off for the route there (it keeps its clearance).
