@@ -310,6 +310,83 @@ mod tests {
     }
 
     #[test]
+    fn slow_or_lossy_links_low_batteries_swaps_and_mixed_firmware_are_reasons() {
+        use crate::link::{LinkStats, RobotStatus};
+        use puzzlebot_protocol::messages::Telemetry;
+        let limits = PreflightLimits::for_fleet(&FleetParams::default());
+        let listed = vec![
+            RobotEntry {
+                id: 1,
+                kind: RobotKind::Pilot,
+                params: None,
+            },
+            RobotEntry {
+                id: 2,
+                kind: RobotKind::NonPilot,
+                params: None,
+            },
+        ];
+        let telemetry = |battery_mv| Telemetry {
+            uptime_ms: 1000,
+            measured_rpm: [0.0; 2],
+            target_rpm: [0.0; 2],
+            duty: [0; 2],
+            encoder_counts: [0; 2],
+            battery_mv,
+            rssi_dbm: -50,
+            flags: 0,
+            last_command_counter: 0,
+        };
+        let status = |id, kind, firmware, rtt, lost, battery: Option<u16>| RobotStatus {
+            id,
+            kind: Some(kind),
+            firmware: Some(firmware),
+            addr: None,
+            online: true,
+            established: true,
+            silent_s: Some(0.0),
+            telemetry: battery.map(telemetry),
+            telemetry_t: None,
+            stats: LinkStats {
+                rx_frames: 90,
+                rx_lost: lost,
+                rtt_avg_ms: Some(rtt),
+                ..LinkStats::default()
+            },
+        };
+        let mut w = PoseWindow {
+            frames: 100,
+            seconds: 1.0,
+            ..PoseWindow::default()
+        };
+        w.last.insert(1, (sample(1.0, 0.0), 0.01));
+        w.last.insert(2, (sample(1.0, 0.2), 0.01));
+        let good = [
+            status(1, RobotKind::Pilot, (0, 3, 0), 4.0, 0, Some(3900)),
+            status(2, RobotKind::NonPilot, (0, 3, 0), 5.0, 0, Some(3900)),
+        ];
+        let (table, problems) = evaluate(&listed, &good, &w, &limits);
+        assert!(problems.is_empty(), "{problems:?}\n{table}");
+        assert!(table.contains("3.90 V"), "{table}");
+        w.jumps.insert(2, 3);
+        let bad = [
+            status(1, RobotKind::Pilot, (0, 3, 0), 80.0, 10, Some(3300)),
+            status(2, RobotKind::NonPilot, (0, 4, 0), 5.0, 0, None),
+        ];
+        let (_, problems) = evaluate(&listed, &bad, &w, &limits);
+        for want in [
+            "firmware versions differ: 0.3.0, 0.4.0",
+            "robot 1: link RTT 80.0 ms (at most 50 ms)",
+            "robot 1: link loss 10.0 % (at most 5.0 %)",
+            "robot 1: battery 3.30 V below 3.40 V",
+            "robot 2: 3 pose jumps faster than it can drive (swapped or mislabelled body?)",
+            "robot 2: no battery reading",
+        ] {
+            assert!(problems.iter().any(|p| p == want), "{want}: {problems:?}");
+        }
+    }
+
+    #[test]
     fn an_old_pose_is_a_reason_and_a_fresh_one_at_the_mocap_rate_is_not() {
         let limits = PreflightLimits::for_fleet(&FleetParams::default());
         let mut w = PoseWindow {
