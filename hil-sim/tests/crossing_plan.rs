@@ -1,5 +1,5 @@
 //! The gate plans, the physics drives: the crossing planner's best 2 × 2 mesh (one pilot) for
-//! a 40 mm gap, formed at the planner's pose and heading in the 3-D world and driven by its
+//! a 40 mm gap, level and 5 mm down (THESIS 3.5.2), formed at the planner's pose and heading in the 3-D world and driven by its
 //! firmware, ends with every robot on the far platform, none fallen, no connector broken.
 
 use puzzlebot_params::terrain::{Platform, Terrain};
@@ -11,19 +11,32 @@ use puzzlebot_stability::puzzlebot::PairKind;
 
 #[test]
 fn the_planned_mesh_crosses_in_the_physics() {
+    cross_planned(0.0);
+}
+
+/// THESIS 3.5.2: the far platform 5 mm lower.
+#[test]
+fn the_planned_mesh_crosses_40_mm_down_5_mm() {
+    cross_planned(0.005);
+}
+
+/// Plan 4 robots (one pilot) over a 40 mm gap with the near platform `drop` higher, drive
+/// the best 2 x 2 mesh the planner proves at its heading, check every robot is across.
+fn cross_planned(drop: f64) {
     let gap = 0.04;
     let terrain = Terrain {
         platforms: vec![
-            Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.0),
+            Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], drop),
             Platform::rect("far", [gap, -0.5], [gap + 1.0, 0.5], 0.0),
         ],
     };
     let params = FleetParams::default();
     let ranked = plan(&terrain, &params, 4, 1, &CrossingOptions::default()).expect("plan");
-    let best = ranked
-        .iter()
-        .find(|c| c.shape == "mesh 2x2" && c.crosses())
-        .expect("the gate proves a 2 x 2 mesh across 40 mm");
+    let best = &ranked[0];
+    assert!(
+        best.shape == "mesh 2x2" && best.crosses(),
+        "the planner's choice: {best:?}"
+    );
     // The candidate's assembly where the planner starts it.
     let mesh = puzzlebot_params::formation::Shape::Mesh {
         rows: 2,

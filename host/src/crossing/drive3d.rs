@@ -10,7 +10,7 @@ use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
 use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
-use puzzlebot_stability::crossing::{formed_with, Candidate};
+use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
 use puzzlebot_stability::gate::{evaluate, Verdict};
 use puzzlebot_stability::puzzlebot::{
     assembly_level, build_model_with, Pair, PairKind, PuzzleAssembly, RobotPose,
@@ -196,9 +196,8 @@ pub fn gate_now(
     let Some(level) = assembly_level(&a, params, terrain) else {
         return Some("no support under any robot".into());
     };
-    match build_model_with(&a, params, terrain, level, [0.0, 0.0], false, true)
-        .map(|m| evaluate(&m))
-    {
+    let opt = CrossingOptions::default().advance_options(0.0);
+    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt).map(|m| evaluate(&m)) {
         Ok(Ok(r)) => match r.verdict {
             Verdict::Stable => None,
             v => Some(format!("{v:?}")),

@@ -268,6 +268,7 @@ fn run_case(
         AdvanceOptions {
             rigid_couplings: true,
             anchor_pitch_free: false,
+            max_drop: opt.max_drop,
             horizon: cand.required + 0.01,
         },
     )

@@ -32,6 +32,21 @@ pub struct CrossingOptions {
     pub clearance: f64,
     /// Scan step of the gate along the advance (m).
     pub step: f64,
+    /// A robot over a platform at most this much lower rests on it (m,
+    /// [`AdvanceOptions::max_drop`]); THESIS's crossings step down 5–6 mm.
+    pub max_drop: f64,
+}
+
+impl CrossingOptions {
+    /// The gate's options for a crossing of `required` m.
+    pub fn advance_options(&self, required: f64) -> AdvanceOptions {
+        AdvanceOptions {
+            rigid_couplings: false,
+            anchor_pitch_free: true,
+            max_drop: self.max_drop,
+            horizon: required + 0.01,
+        }
+    }
 }
 
 impl Default for CrossingOptions {
@@ -42,6 +57,7 @@ impl Default for CrossingOptions {
             start_y: 0.0,
             clearance: 0.005,
             step: 0.005,
+            max_drop: 0.006,
         }
     }
 }
@@ -395,11 +411,7 @@ fn candidate(
         terrain,
         heading,
         opt.step,
-        AdvanceOptions {
-            rigid_couplings: false,
-            anchor_pitch_free: true,
-            horizon: required + 0.01,
-        },
+        opt.advance_options(required),
     )
     .map_err(|cause| PlanError::Adapter {
         shape: shape.name(),
@@ -410,7 +422,7 @@ fn candidate(
         _ => advance.distance.min(required + 0.01) - required,
     };
     let stability_margin = if margin >= 0.0 {
-        sampled_margin(&a, params, terrain, heading, required, opt.step).map_err(|cause| {
+        sampled_margin(&a, params, terrain, heading, required, opt).map_err(|cause| {
             PlanError::Adapter {
                 shape: shape.name(),
                 cause,
@@ -433,15 +445,18 @@ fn candidate(
     }))
 }
 
-/// Smallest internal stability margin at samples every `step` along `distance` of advance.
+/// Smallest internal stability margin at samples every `opt.step` along `distance` of
+/// advance.
 fn sampled_margin(
     a: &PuzzleAssembly,
     params: &FleetParams,
     terrain: &Terrain,
     heading: f64,
     distance: f64,
-    step: f64,
+    opt: &CrossingOptions,
 ) -> Result<Option<f64>, AdapterError> {
+    let step = opt.step;
+    let model_opt = opt.advance_options(distance);
     let Some(level) = assembly_level(a, params, terrain) else {
         return Ok(None);
     };
@@ -450,7 +465,7 @@ fn sampled_margin(
     let mut worst: Option<f64> = None;
     for k in 0..=n {
         let d = (k as f64 * step).min(distance);
-        let m = build_model_with(a, params, terrain, level, [c * d, s * d], false, true)?;
+        let m = build_model_with(a, params, terrain, level, [c * d, s * d], &model_opt)?;
         if let Some(margin) = evaluate(&m)?.margin {
             worst = Some(worst.map_or(margin, |w: f64| w.min(margin)));
         }

@@ -78,6 +78,10 @@ pub struct AdvanceOptions {
     /// as in the 3-D physics. The crossing planner sets it; off, the anchor is modelled as
     /// holding pitch up to its box limit.
     pub anchor_pitch_free: bool,
+    /// A contact over a platform at most this much lower than the one the assembly stands on
+    /// rests on it (m): the assembly's compliance lets a robot settle onto a platform a few
+    /// millimetres down (THESIS 3.5.2's 5 mm, 3.5.3's 6 mm). 0: only the assembly's level.
+    pub max_drop: f64,
     /// Search no further than this (m).
     pub horizon: f64,
 }
@@ -87,6 +91,7 @@ impl Default for AdvanceOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: false,
+            max_drop: 0.0,
             horizon: 1.0,
         }
     }
@@ -173,7 +178,7 @@ fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
 #[derive(Debug, Clone, PartialEq)]
 enum Touch {
     Free,
-    On(f64), // friction
+    On(f64, f64), // friction, platform height
     Blocked,
 }
 
@@ -183,6 +188,7 @@ fn touches(
     terrain: &Terrain,
     level: f64,
     offset: [f64; 2],
+    max_drop: f64,
 ) -> Vec<Vec<Touch>> {
     a.robots
         .iter()
@@ -195,7 +201,9 @@ fn touches(
             contact_points(r.kind, params)
                 .iter()
                 .map(|(b, _)| match terrain.support_at(world(&moved, *b)) {
-                    Some((h, mu)) if (h - level).abs() <= 1e-3 => Touch::On(mu),
+                    Some((h, mu)) if h <= level + 1e-3 && h >= level - max_drop - 1e-3 => {
+                        Touch::On(mu, h)
+                    }
                     Some((h, _)) if h > level + 1e-3 => Touch::Blocked,
                     _ => Touch::Free,
                 })
@@ -245,22 +253,26 @@ pub fn build_model(
     offset: [f64; 2],
     rigid: bool,
 ) -> Result<Assembly, AdapterError> {
-    build_model_with(a, params, terrain, level, offset, rigid, false)
+    let opt = AdvanceOptions {
+        rigid_couplings: rigid,
+        ..AdvanceOptions::default()
+    };
+    build_model_with(a, params, terrain, level, offset, &opt)
 }
 
-/// [`build_model`], the anchor's pitch couple released when `anchor_pitch_free`
-/// ([`AdvanceOptions::anchor_pitch_free`]).
+/// [`build_model`] with the options of [`AdvanceOptions`] (couplings rigid, the anchor's
+/// pitch free, contacts on lower platforms).
 pub fn build_model_with(
     a: &PuzzleAssembly,
     params: &FleetParams,
     terrain: &Terrain,
     level: f64,
     offset: [f64; 2],
-    rigid: bool,
-    anchor_pitch_free: bool,
+    opt: &AdvanceOptions,
 ) -> Result<Assembly, AdapterError> {
+    let (rigid, anchor_pitch_free) = (opt.rigid_couplings, opt.anchor_pitch_free);
     check(a)?;
-    let t = touches(a, params, terrain, level, offset);
+    let t = touches(a, params, terrain, level, offset, opt.max_drop);
     let mut modules = Vec::with_capacity(a.robots.len());
     let mut contacts = Vec::new();
     for (i, r) in a.robots.iter().enumerate() {
@@ -283,12 +295,12 @@ pub fn build_model_with(
             fixed: false,
         });
         for ((b, wheel), touch) in contact_points(r.kind, params).iter().zip(&t[i]) {
-            if let Touch::On(mu) = touch {
+            if let Touch::On(mu, h) = touch {
                 let w = world(&moved, *b);
                 let m = if *wheel { *mu } else { 0.0 };
                 contacts.push(Contact {
                     module: format!("r{i}"),
-                    point: [w[0], w[1], level],
+                    point: [w[0], w[1], *h],
                     normal: None,
                     mu: [m, m],
                     x_axis: Some([r.yaw.cos(), r.yaw.sin(), 0.0]),
@@ -427,20 +439,12 @@ pub fn max_safe_advance_with(
     };
     let dir = [heading.cos(), heading.sin()];
     let at = |d: f64| [dir[0] * d, dir[1] * d];
-    let state = |d: f64| touches(assembly, params, terrain, level, at(d));
+    let state = |d: f64| touches(assembly, params, terrain, level, at(d), opt.max_drop);
     let judge = |d: f64, st: &Vec<Vec<Touch>>| -> Result<Option<LimitedBy>, AdapterError> {
         if let Some(robot) = st.iter().position(|r| r.contains(&Touch::Blocked)) {
             return Ok(Some(LimitedBy::StepUp { robot }));
         }
-        let m = build_model_with(
-            assembly,
-            params,
-            terrain,
-            level,
-            at(d),
-            opt.rigid_couplings,
-            opt.anchor_pitch_free,
-        )?;
+        let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
         let rep = evaluate(&m)?;
         Ok(match rep.verdict {
             Verdict::Stable => None,

@@ -76,6 +76,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        max_drop: 0.0,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -122,6 +123,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        max_drop: 0.0,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -184,6 +186,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
         AdvanceOptions {
             rigid_couplings: true,
             anchor_pitch_free: false,
+            max_drop: 0.0,
             horizon: 1.0,
         },
     )
