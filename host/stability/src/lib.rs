@@ -25,6 +25,7 @@ pub mod io;
 pub mod ipm;
 pub mod model;
 pub mod picture;
+pub mod poe;
 pub mod puzzlebot;
 pub mod range;
 pub mod socp;
