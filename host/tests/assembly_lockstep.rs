@@ -15,9 +15,10 @@
 //! - a non-pilot reaches a waiting pilot from the wrong side without pushing it (THESIS 3.5.2);
 //! - six robots (one pilot) scattered over 0.6 m × 0.6 m grow a 2-row mesh around the pilot,
 //!   one robot at a time round the others, and drive it 0.5 m;
-//! - `puzzlebot demo` (the grown mesh driven 0.5 m), exactly as the binary runs it;
-//! - the full demo as `puzzlebot demo` runs it: 6 robots with 2 pilots grow a mesh,
-//!   move it, dissolve it and disperse (the other demo test: one pilot);
+//! - the 2-D part of `puzzlebot demo` (the grown mesh driven 0.5 m), as the binary runs it
+//!   before its gap crossing (`tests/demo_crossing.rs`);
+//! - the whole demo scenario in 2-D: 6 robots with 2 pilots grow a mesh, move it, dissolve
+//!   it and disperse (the other demo test: one pilot);
 //! - a run with random controller latency (`Lockstep::command_jitter`) is reproducible.
 //!
 //! The decoupling, lost-robot and gate tests run with 30 ms of controller latency (a real
@@ -540,11 +541,10 @@ timeout_s = 50
 
 #[test]
 fn the_assembly_demo_forms_moves_dissolves_and_disperses() {
-    // Exactly what `puzzlebot demo` runs (demo.toml on `demo_fleet`): six robots, two pilots
-    // set down in one lane and four scattered, grow a 2-row mesh around the front pilot (a
-    // non-pilot couples to the back pilot and the two drive straight up to it first), move it
-    // 0.5 m, dissolve it and every robot reaches its own goal. Measured 2026-12-02 over
-    // seeds 1–24 of `scattered_fleet(6, 2, seed)`: 23 pass every step (README, Status).
+    // The demo's scenario (demo.toml on `demo_fleet`) to its end in 2-D: six robots, two
+    // pilots set down in one lane and four scattered, grow a 2-row mesh around the front pilot
+    // (a non-pilot couples to the back pilot and the two drive straight up to it first), move
+    // it 0.5 m, dissolve it and every robot reaches its own goal.
     let f = puzzlebot_host::assemble::demo_fleet();
     let mut ctl = controller(&f, puzzlebot_host::assemble::DEMO_SCENARIO);
     let start: Vec<[f64; 3]> = f.robots.iter().map(|r| r.pose).collect();
