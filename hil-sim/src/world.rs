@@ -276,6 +276,8 @@ pub struct World {
     plant_out: Vec<([f64; 2], [f64; 3])>,
     /// Scratch: per robot velocity change (v, v_y, Ω) the projection asks for.
     feedback: Vec<[f64; 3]>,
+    /// Scratch: per island the energy terms (B, C) of that velocity change.
+    feedback_energy: Vec<[f64; 2]>,
 }
 
 impl World {
@@ -370,6 +372,7 @@ impl World {
             scratch: Vec::new(),
             plant_out: Vec::new(),
             feedback: Vec::new(),
+            feedback_energy: Vec::new(),
         })
     }
 

@@ -54,7 +54,9 @@ impl World {
         if any {
             let island = self.mech.islands(n);
             // Per island: B = Σ m·v·Δv + I·Ω·ΔΩ, C = Σ m·|Δv|² + I·ΔΩ².
-            let mut bc = vec![[0.0f64; 2]; n];
+            let mut bc = std::mem::take(&mut self.feedback_energy);
+            bc.clear();
+            bc.resize(n, [0.0; 2]);
             for ((r, d), &k) in self.robots.iter().zip(dv.iter()).zip(island.iter()) {
                 let (m, iz) = (r.model.m, r.model.iz);
                 let st = &r.drive;
@@ -71,6 +73,7 @@ impl World {
                 r.drive.vy += share * d[1];
                 r.drive.omega += share * d[2];
             }
+            self.feedback_energy = bc;
         }
         self.feedback = dv;
     }

@@ -64,8 +64,6 @@ pub struct AssemblyController {
     runner_started: bool,
     /// Keeps robots that are not docking apart.
     separation: SeparationConfig,
-    /// Commands the separation filter has slowed.
-    pub separation_slowed: u64,
     /// Every robot's last pose and velocity, for [`AssemblyController::max_prediction_s`].
     poses: PoseHistory,
     /// Robots in an inserted or connected pair (no velocity stabiliser feedback).
@@ -121,7 +119,6 @@ impl AssemblyController {
             fleet_wait_s: FLEET_WAIT_S,
             runner_started: false,
             separation: SeparationConfig::from_geometry(&g),
-            separation_slowed: 0,
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -141,7 +138,7 @@ impl AssemblyController {
     /// The separation filter ([`separate`]) over this tick's commands: robots that drive alone
     /// keep clear of every robot they are not docking with.
     fn keep_apart(
-        &mut self,
+        &self,
         tick: &Tick,
         states: &[RobotState],
         segments: &BTreeMap<usize, Vec<RobotId>>,
@@ -192,7 +189,7 @@ impl AssemblyController {
             .copied()
             .filter(|id| !wait.contains(id))
             .collect();
-        self.separation_slowed += separate(&self.separation, states, &alone, &exempt, out) as u64;
+        separate(&self.separation, states, &alone, &exempt, out);
     }
 
     fn limits(&self, kind: RobotKind) -> Limits {
