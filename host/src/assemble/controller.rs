@@ -18,7 +18,7 @@ use puzzlebot_protocol::messages::RobotId;
 use super::costs::{costs, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
 use super::gate::{Gate, GateConfig, GateStop};
 use super::latency::{PoseHistory, FLEET_WAIT_S, MAX_PREDICTION_S};
-use super::separation::{separate, Exemptions, SeparationConfig};
+use super::separation::{separate_making_way, Exemptions, SeparationConfig};
 use super::slow_steps::slow_step_warnings;
 use crate::control::{Controller, FleetView, HandRequest};
 use crate::drive::Twist;
@@ -182,14 +182,26 @@ impl AssemblyController {
                 touch(task.robot, partner);
             }
         }
-        let alone: BTreeSet<RobotId> = segments
+        let lone: BTreeSet<RobotId> = segments
             .values()
             .filter(|m| m.len() == 1)
             .flatten()
             .copied()
-            .filter(|id| !wait.contains(id))
             .collect();
-        separate(&self.separation, states, &alone, &exempt, out);
+        let alone: BTreeSet<RobotId> = lone.difference(wait).copied().collect();
+        // Dissolving, released robots hold while their neighbours pull out of each other: the
+        // ones standing in a puller's way make way for it.
+        let holders: BTreeSet<RobotId> =
+            if matches!(self.runner.coordinator().mode(), Mode::Decouple { .. }) {
+                tick.tasks
+                    .iter()
+                    .filter(|t| t.role == Role::Hold && lone.contains(&t.robot))
+                    .map(|t| t.robot)
+                    .collect()
+            } else {
+                BTreeSet::new()
+            };
+        separate_making_way(&self.separation, states, &alone, &holders, &exempt, out);
     }
 
     fn limits(&self, kind: RobotKind) -> Limits {

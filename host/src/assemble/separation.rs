@@ -12,6 +12,10 @@
 //! nominal one within the bounds. Robots already closer than D (just released from an
 //! assembly) may only move apart.
 //!
+//! A robot that holds still where a filtered robot needs to pass makes way ([`make_way`]):
+//! pulling out of a dissolving line, each robot's neighbours stand closer than the clearance,
+//! so without it the pullers and the robots holding in front of them wait for each other.
+//!
 //! Robots that are meant to touch are exempt: members of one assembly (they move as one body
 //! and are never filtered themselves), and the two sides of every pair being docked or coupled.
 //! Robots told to wait or hold are not driven by the filter either. The assembly controller
@@ -108,6 +112,84 @@ pub fn separate(
     slowed
 }
 
+/// Smallest share of a robot's straight motion that must open the gap to a robot it makes
+/// way for (cosine of 60°): a robot standing more sideways than that cannot clear the way by
+/// driving straight and stays.
+const MAKE_WAY_MIN_ALIGNMENT: f64 = 0.5;
+
+/// [`separate`], after which every robot in `holders` (alone and told to stand still) that
+/// keeps a robot in `alone` from its nominal speed drives straight away from it at that
+/// speed and is filtered too, so a robot it then closes on makes way in turn. Returns the
+/// robots that make way.
+pub fn separate_making_way(
+    cfg: &SeparationConfig,
+    states: &[RobotState],
+    alone: &BTreeSet<RobotId>,
+    holders: &BTreeSet<RobotId>,
+    exempt: &Exemptions,
+    out: &mut BTreeMap<RobotId, Twist>,
+) -> BTreeSet<RobotId> {
+    let mut alone = alone.clone();
+    let mut nominal = out.clone();
+    let mut yielding = BTreeSet::new();
+    // Each round adds at least one robot that makes way, so the cascade ends.
+    loop {
+        let mut trial = nominal.clone();
+        separate(cfg, states, &alone, exempt, &mut trial);
+        let new = make_way(cfg, states, &alone, holders, &yielding, exempt, &nominal);
+        if new.is_empty() {
+            *out = trial;
+            return yielding;
+        }
+        for (id, twist) in new {
+            alone.insert(id);
+            yielding.insert(id);
+            nominal.insert(id, twist);
+        }
+    }
+}
+
+/// The holding robots that keep a filtered robot from its nominal speed, each with the
+/// straight command that takes it away from that robot at that speed.
+fn make_way(
+    cfg: &SeparationConfig,
+    states: &[RobotState],
+    alone: &BTreeSet<RobotId>,
+    holders: &BTreeSet<RobotId>,
+    yielding: &BTreeSet<RobotId>,
+    exempt: &Exemptions,
+    nominal: &BTreeMap<RobotId, Twist>,
+) -> BTreeMap<RobotId, Twist> {
+    let mut new = BTreeMap::new();
+    for si in states.iter().filter(|s| alone.contains(&s.id)) {
+        let Some(v) = nominal.get(&si.id).map(|t| t.v).filter(|v| *v != 0.0) else {
+            continue;
+        };
+        for sj in states {
+            let free =
+                holders.contains(&sj.id) && !yielding.contains(&sj.id) && !new.contains_key(&sj.id);
+            if !free || sj.id == si.id || exempt.may_touch(si.id, sj.id) {
+                continue;
+            }
+            let Some((a, bound)) = neighbour_bound(cfg, si, sj, 1.0) else {
+                continue;
+            };
+            let blocks = if a > 0.0 { v < bound } else { v > bound };
+            if !blocks {
+                continue;
+            }
+            // Unit vector from i to j along j's heading: j opens the gap driving that way.
+            let d = (sj.pose.x - si.pose.x).hypot(sj.pose.y - si.pose.y);
+            let (s, c) = sj.pose.yaw.sin_cos();
+            let along = ((sj.pose.x - si.pose.x) * c + (sj.pose.y - si.pose.y) * s) / d;
+            if along.abs() >= MAKE_WAY_MIN_ALIGNMENT {
+                new.insert(sj.id, Twist::new(along.signum() * v.abs(), 0.0));
+            }
+        }
+    }
+    new
+}
+
 /// The interval of forward speeds that keeps robot `si` clear of its neighbours.
 fn speed_bounds(
     cfg: &SeparationConfig,
@@ -117,24 +199,14 @@ fn speed_bounds(
     exempt: &Exemptions,
 ) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
-    let (s, c) = si.pose.yaw.sin_cos();
     for sj in states {
         if sj.id == si.id || exempt.may_touch(si.id, sj.id) {
             continue;
         }
-        let (dx, dy) = (si.pose.x - sj.pose.x, si.pose.y - sj.pose.y);
-        let d = dx.hypot(dy);
-        let h = d - cfg.clearance;
-        if h > cfg.range || d < 1e-9 {
-            continue;
-        }
-        // n·e_i: how much forward speed changes the distance.
-        let a = (dx * c + dy * s) / d;
-        if a.abs() < 1e-3 {
-            continue; // moving sideways to the neighbour: the distance does not change
-        }
         let share = if alone.contains(&sj.id) { 0.5 } else { 1.0 };
-        let bound = -share * cfg.rate * h / a;
+        let Some((a, bound)) = neighbour_bound(cfg, si, sj, share) else {
+            continue;
+        };
         if a > 0.0 {
             lo = lo.max(bound);
         } else {
@@ -142,6 +214,30 @@ fn speed_bounds(
         }
     }
     (lo, hi)
+}
+
+/// Robot `sj`'s bound on robot `si`'s forward speed, when `sj` is in range and `si`'s speed
+/// changes their distance: `(n·e_i, bound)`, a lower bound when `n·e_i > 0` and an upper one
+/// otherwise; `share` is `si`'s part of the barrier rate.
+fn neighbour_bound(
+    cfg: &SeparationConfig,
+    si: &RobotState,
+    sj: &RobotState,
+    share: f64,
+) -> Option<(f64, f64)> {
+    let (s, c) = si.pose.yaw.sin_cos();
+    let (dx, dy) = (si.pose.x - sj.pose.x, si.pose.y - sj.pose.y);
+    let d = dx.hypot(dy);
+    let h = d - cfg.clearance;
+    if h > cfg.range || d < 1e-9 {
+        return None;
+    }
+    // n·e_i: how much forward speed changes the distance.
+    let a = (dx * c + dy * s) / d;
+    if a.abs() < 1e-3 {
+        return None; // moving sideways to the neighbour: the distance does not change
+    }
+    Some((a, -share * cfg.rate * h / a))
 }
 
 #[cfg(test)]
@@ -224,6 +320,54 @@ mod tests {
             0
         );
         assert_eq!(out[&1].v, 0.1);
+    }
+
+    #[test]
+    fn robots_holding_in_a_pullers_way_make_way_in_turn() {
+        // A released line: robot 1 pulls forward, robots 2 and 3 hold in front of it,
+        // touching; robot 4 holds beside the line, out of the way.
+        let gap = 0.069;
+        let mut states = vec![
+            state(1, 0.0, 0.0, 0.0),
+            state(2, gap, 0.0, std::f64::consts::PI),
+            state(3, 2.0 * gap, 0.0, 0.0),
+            state(4, gap, 0.2, 0.0),
+        ];
+        let alone = BTreeSet::from([1]);
+        let holders = BTreeSet::from([2, 3, 4]);
+        let dt = 0.02;
+        let mut made_way = BTreeSet::new();
+        for _ in 0..(6.0 / dt) as usize {
+            let mut out: BTreeMap<RobotId, Twist> = states
+                .iter()
+                .map(|s| (s.id, Twist::new(0.0, 0.0)))
+                .collect();
+            out.insert(1, Twist::new(0.02, 0.0));
+            let exempt = Exemptions::default();
+            made_way.extend(separate_making_way(
+                &cfg(),
+                &states,
+                &alone,
+                &holders,
+                &exempt,
+                &mut out,
+            ));
+            for s in &mut states {
+                let c = out[&s.id];
+                s.pose.x += c.v * s.pose.yaw.cos() * dt;
+                s.pose.y += c.v * s.pose.yaw.sin() * dt;
+            }
+        }
+        assert_eq!(made_way, BTreeSet::from([2, 3]));
+        assert!(
+            states[0].pose.x > 0.04,
+            "the puller stayed at {:.3} m",
+            states[0].pose.x
+        );
+        assert_eq!(states[3].pose.x, gap, "the robot beside the line moved");
+        // Nobody was pushed: each gap stayed at least what it was.
+        assert!(dist(&states[0], &states[1]) >= gap - 1e-3);
+        assert!(dist(&states[1], &states[2]) >= gap - 1e-3);
     }
 
     #[test]
