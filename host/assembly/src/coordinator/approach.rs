@@ -61,8 +61,22 @@ pub(super) struct DockFrame {
 /// Where a robot's direct-drive manoeuvre for a pair stands (kept between ticks, per pair).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Manoeuvre {
-    /// Side docking: sweeping along the side in this direction (±1).
-    Sweep(f64),
+    /// Side docking: sweeping along the side in direction `dir` (±1), `passes` times over
+    /// the place so far.
+    Sweep {
+        /// ±1.
+        dir: f64,
+        /// Reversals past the place without the knob clicking in.
+        passes: u32,
+        /// Direction of the first pass (±1): the robot came in from `−entry`.
+        entry: f64,
+    },
+    /// Side docking: backing along the side, clear of it, to the start of the approach in
+    /// direction `dir` (±1), to come in afresh (see [`DockConfig::max_passes`]).
+    Retreat {
+        /// ±1.
+        dir: f64,
+    },
     /// Anchor approach: at the stand-off, turning onto the axis.
     Turning,
     /// Anchor approach: driving along the axis (`dir` ±1: forwards / backwards), in or
@@ -171,18 +185,48 @@ impl Coordinator {
         // Never slower than the wheels' dead-band allows (fine steering needs both wheels
         // turning): the robot drives through the place, and back after `overshoot`, until
         // the knob clicks in.
-        let dir = {
+        let (dir, retreat) = {
             let mut dirs = self.dock_dir.borrow_mut();
-            let state = dirs.entry(i).or_insert(Manoeuvre::Sweep(sigma));
-            let mut dir = match *state {
-                Manoeuvre::Sweep(dir) => dir,
-                _ => sigma,
+            let fresh = Manoeuvre::Sweep {
+                dir: sigma,
+                passes: 0,
+                entry: sigma,
             };
-            if -dir * here[0] < -d.overshoot {
-                dir = -dir;
+            let state = dirs.entry(i).or_insert(fresh);
+            let next = match *state {
+                // Back at the start of the approach: in afresh, the partner's assembly
+                // allowed to straighten again (it may have been pushed round meanwhile).
+                Manoeuvre::Retreat { dir } if dir * here[0] >= d.run_in => {
+                    self.straighten_from.borrow_mut().remove(&i);
+                    Manoeuvre::Sweep {
+                        dir: -dir,
+                        passes: 0,
+                        entry: -dir,
+                    }
+                }
+                Manoeuvre::Retreat { dir } => Manoeuvre::Retreat { dir },
+                // Past the place: back over it, or back out the way it came once it has
+                // passed over it `max_passes` times.
+                Manoeuvre::Sweep { dir, passes, entry } if -dir * here[0] < -d.overshoot => {
+                    if passes + 1 >= d.max_passes {
+                        Manoeuvre::Retreat { dir: -entry }
+                    } else {
+                        Manoeuvre::Sweep {
+                            dir: -dir,
+                            passes: passes + 1,
+                            entry,
+                        }
+                    }
+                }
+                Manoeuvre::Sweep { .. } => *state,
+                _ => fresh,
+            };
+            *state = next;
+            match next {
+                Manoeuvre::Retreat { dir } => (dir, true),
+                Manoeuvre::Sweep { dir, .. } => (dir, false),
+                _ => (sigma, false),
             }
-            *state = Manoeuvre::Sweep(dir);
-            dir
         };
         let v = dir * d.speed;
         // The turning sense that moves the robot towards the partner in this direction.
@@ -190,7 +234,11 @@ impl Coordinator {
         // Until the last `DOCK_CONVERGE` before the place the robot keeps `DOCK_HOLD` off
         // the side: converging all the way, it came within the seat gap where its knob
         // passes the wrong hole (25 mm before the place) and clicked in there.
-        let hold = if -dir * here[0] > DOCK_CONVERGE {
+        // Retreating, it steers out to the approach's offset: off the side, where the
+        // partner's row may straighten ([`DockConfig::clearance`]) before it comes in again.
+        let hold = if retreat {
+            d.offset + d.press
+        } else if -dir * here[0] > DOCK_CONVERGE {
             DOCK_HOLD
         } else {
             0.0
@@ -198,7 +246,7 @@ impl Coordinator {
         let target =
             toward * (d.k_lat * (lat + d.press - hold)).clamp(-d.max_heading, d.max_heading);
         let err = wrap_angle(yaw_rel - target);
-        if hold > 0.0 && err.abs() > DOCK_TURN_FIRST {
+        if hold > 0.0 && !retreat && err.abs() > DOCK_TURN_FIRST {
             // Still turning (the turn onto the approach line carries on past its end):
             // driving now would close the hold at once (flush with the side at the wrong
             // hole). Only on the way in: sweeping over the place, turns on the spot at each
@@ -309,14 +357,14 @@ impl Coordinator {
                     },
                 );
             }
-            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_))
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep { .. } | Manoeuvre::Retreat { .. })
                 if !on_axis || yaw_rel.abs() > 0.35 =>
             {
                 // Lost the axis: start over from the stand-off.
                 phase.remove(&i);
                 return Some(Role::Hold);
             }
-            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep(_)) => {}
+            Some(Manoeuvre::In { .. } | Manoeuvre::Sweep { .. } | Manoeuvre::Retreat { .. }) => {}
         }
         // Going in (dir = s), or backing off (dir = −s) when the robot is about to touch
         // the partner still off the axis or askew (it would push it, not couple), until it

@@ -31,6 +31,11 @@ pub struct DockConfig {
     /// The docking robot reverses after passing its place by this much (m): less than the
     /// 25 mm to the next hole.
     pub overshoot: f64,
+    /// Side docking: passes over the place without the knob clicking in after which the
+    /// robot backs out along the side, clear of it, to the start of its approach and comes in
+    /// afresh: a robot sweeping flush against a bent row keeps it from straightening
+    /// ([`DockConfig::clearance`]) and pushes it further round.
+    pub max_passes: u32,
     /// A bent assembly straightens only while the docking robot is at least this far from
     /// its side (m); nearer, the moving holes could catch its knobs at the wrong place.
     pub clearance: f64,
@@ -60,6 +65,7 @@ impl Default for DockConfig {
             max_bend: 0.04,
             overshoot: 0.012,
             clearance: 0.003,
+            max_passes: 8,
             standoff: 0.06,
             min_turn: 0.9,
             tug_s: 1.5,

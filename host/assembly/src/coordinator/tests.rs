@@ -183,6 +183,77 @@ fn a_docking_robot_stays_off_the_side_until_it_has_passed_the_wrong_hole() {
     );
 }
 
+#[test]
+fn a_robot_that_sweeps_over_its_place_without_a_click_backs_out_clear_and_comes_in_again() {
+    let (mut c, mixed, _, _, i, lone) = row_formed_side_next();
+    let frame = c.dock_frame(i, lone).unwrap();
+    let (fin, (nx, ny)) = (frame.fin, frame.normal);
+    let d = c.cfg.dock;
+    // Distance out from the side (m) of a robot at `pose`.
+    let off_side = |pose: &Pose2| {
+        let here = fin.inverse_transform(pose.xy());
+        -(here[0] * nx + here[1] * ny)
+    };
+    let mut t = 1.0;
+    // The robot at `pose`: its v, and where it is after `dt` at that (v, ω).
+    let mut step = |pose: &mut Pose2, dt: f64| {
+        t += 0.1;
+        let robots: Vec<RobotState> = mixed
+            .iter()
+            .map(|r| {
+                if r.id == lone {
+                    RobotState { pose: *pose, ..*r }
+                } else {
+                    *r
+                }
+            })
+            .collect();
+        let (v, w) = match role_of(&c.tick(t, &robots), lone) {
+            Role::Dock { v, w, .. } => (*v, *w),
+            other => panic!("at {pose:?}: {other:?}"),
+        };
+        *pose = Pose2::new(
+            pose.x + v * dt * pose.yaw.cos(),
+            pose.y + v * dt * pose.yaw.sin(),
+            pose.yaw + w * dt,
+        );
+        v
+    };
+    // Flush with the side, coming in from behind its place.
+    assert!(step(&mut fin.compose(&Pose2::new(-0.03, 0.0, 0.0)), 0.0) > 0.0);
+    // Over its place and back, `max_passes` times, without the knob clicking in.
+    for k in 0..d.max_passes {
+        let past = if k % 2 == 0 { 1.0 } else { -1.0 } * (d.overshoot + 0.002);
+        let v = step(&mut fin.compose(&Pose2::new(past, 0.0, 0.0)), 0.0);
+        if k + 1 < d.max_passes {
+            assert!(v * past < 0.0, "pass {k}: v {v} at {past} m");
+        } else {
+            assert!(v < 0.0, "last pass: v {v} at {past} m");
+        }
+    }
+    // It backs out the way it came, over its place without turning back, and steers off
+    // the side, where the row may straighten.
+    let mut pose = fin.compose(&Pose2::new(0.005, 0.0, 0.0));
+    let mut widest = 0.0_f64;
+    for _ in 0..40 {
+        let here = fin.inverse_transform(pose.xy());
+        if -here[0] >= d.run_in {
+            break;
+        }
+        assert!(step(&mut pose, 0.1) < 0.0, "turned back at {here:?}");
+        widest = widest.max(off_side(&pose));
+    }
+    let here = fin.inverse_transform(pose.xy());
+    assert!(-here[0] >= d.run_in, "still backing out at {here:?}");
+    assert!(
+        widest > d.clearance,
+        "kept within {widest} m of the side (the row straightens from {} m)",
+        d.clearance
+    );
+    // Then it comes in afresh.
+    assert!(step(&mut pose, 0.0) > 0.0);
+}
+
 /// [`row_formed_side_next`] with every robot at its goal, and the other row's anchor pair
 /// `j`: its robot in the side pair is in place, the other one (`me`) comes in along the
 /// axis, which runs beside the first row.
