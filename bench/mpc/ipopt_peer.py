@@ -22,6 +22,11 @@ import time
 import casadi as ca
 
 
+def pose_yaw(pose):
+    """A pose's heading (rad), stored as `yaw` or `theta`."""
+    return pose["yaw"] if "yaw" in pose else pose["theta"]
+
+
 def build(inst):
     h = inst["horizon"]
     hc = inst["constraint_horizon"]
@@ -32,7 +37,7 @@ def build(inst):
     U = ca.MX.sym("u", 2 * h)
     v = [U[2 * k] for k in range(h)]
     w = [U[2 * k + 1] for k in range(h)]
-    xs = [(x0["x"], x0["y"], x0["theta"])]
+    xs = [(x0["x"], x0["y"], pose_yaw(x0))]
     for k in range(h):
         px, py, th = xs[-1]
         xs.append((px + dt * v[k] * ca.cos(th), py + dt * v[k] * ca.sin(th), th + dt * w[k]))
@@ -52,7 +57,7 @@ def build(inst):
             p = tr(xs[k], t["point"])
             c = (p[0] - target["x"]) ** 2 + (p[1] - target["y"]) ** 2
             if t["heading"] > 0:
-                c += t["heading"] * ca.tan(0.5 * (xs[k][2] + t["angle"] - target["theta"])) ** 2
+                c += t["heading"] * ca.tan(0.5 * (xs[k][2] + t["angle"] - pose_yaw(target))) ** 2
             J += wk * c
     for vt in inst["velocities"]:
         for k in range(h):
@@ -105,7 +110,7 @@ def build(inst):
         nbs = cp["neighbour_poses"]
         for k in range(1, min(hc, h) + 1):
             nb = nbs[min(k, len(nbs) - 1)]
-            nbp = (nb["x"], nb["y"], nb["theta"])
+            nbp = (nb["x"], nb["y"], pose_yaw(nb))
             anchor, opening = (xs[k], nbp) if cp["role"] == "Anchor" else (nbp, xs[k])
             q = in_frame(anchor, g["anchor_head"], opening)
             for e in range(len(poly)):

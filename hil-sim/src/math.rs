@@ -1,51 +1,10 @@
-//! Planar poses and small vector helpers (f64, metres and radians).
-
-use serde::{Deserialize, Serialize};
+//! Planar frames and small vector helpers (f64, metres and radians).
 
 /// A 2-D vector.
 pub type V2 = [f64; 2];
 
-/// A planar pose: position (m) and heading (rad, CCW from +x).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Pose {
-    /// x (m).
-    pub x: f64,
-    /// y (m).
-    pub y: f64,
-    /// Heading (rad).
-    pub yaw: f64,
-}
-
-impl Pose {
-    /// A pose from its parts.
-    pub fn new(x: f64, y: f64, yaw: f64) -> Pose {
-        Pose { x, y, yaw }
-    }
-
-    /// A body-frame point in the world frame.
-    pub fn apply(&self, p: V2) -> V2 {
-        let (s, c) = self.yaw.sin_cos();
-        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
-    }
-
-    /// A world point in this body frame.
-    pub fn inverse_apply(&self, p: V2) -> V2 {
-        let (s, c) = self.yaw.sin_cos();
-        let d = [p[0] - self.x, p[1] - self.y];
-        [c * d[0] + s * d[1], -s * d[0] + c * d[1]]
-    }
-
-    /// A body-frame direction in the world frame.
-    pub fn rotate(&self, v: V2) -> V2 {
-        let (s, c) = self.yaw.sin_cos();
-        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
-    }
-
-    /// Position as a vector.
-    pub fn pos(&self) -> V2 {
-        [self.x, self.y]
-    }
-}
+/// The planar pose (one type for simulator, MPC and planner).
+pub use puzzlebot_params::pose::Pose;
 
 /// A pose with its sine and cosine computed once (for many transforms in a row).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -185,8 +144,11 @@ mod tests {
     #[test]
     fn pose_round_trip_and_hull() {
         let p = Pose::new(1.0, 2.0, 0.7);
-        let w = p.apply([0.3, -0.1]);
-        let b = p.inverse_apply(w);
+        let w = p.transform([0.3, -0.1]);
+        let b = p.inverse_transform(w);
+        let f = Frame::of(&p);
+        assert_eq!(f.apply([0.3, -0.1]), w);
+        assert_eq!(f.inverse_apply(w), b);
         assert!((b[0] - 0.3).abs() < 1e-12 && (b[1] + 0.1).abs() < 1e-12);
         let sq = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.5, 0.5]];
         assert!(in_convex_hull(&sq, [0.5, 0.2]));

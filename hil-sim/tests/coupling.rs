@@ -213,7 +213,7 @@ fn a_half_body_offset_puts_one_knob_into_one_hole_as_in_a_mesh() {
     w.run_for(200_000);
     let t = w.ground_truth();
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
-    let rel = p1.inverse_apply([p2.x, p2.y]);
+    let rel = p1.inverse_transform(p2.xy());
     assert!(
         (rel[0] - 0.025).abs() < 1e-3 && (rel[1] - 0.05).abs() < 1e-3,
         "{rel:?}"

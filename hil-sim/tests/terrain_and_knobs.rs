@@ -149,7 +149,7 @@ fn side_knobs_need_sub_millimetre_alignment_and_are_rigid_once_in() {
     });
     let t = w.ground_truth();
     let (p1, p2) = (t.robot(1).unwrap().pose, t.robot(2).unwrap().pose);
-    let rel = p1.inverse_apply([p2.x, p2.y]);
+    let rel = p1.inverse_transform(p2.xy());
     assert!(p1.x.hypot(p1.y) > 0.05, "the pair moved: {p1:?}");
     assert!(
         (rel[0] - 0.0).abs() < 1e-3 && (rel[1] - 0.05).abs() < 1e-3,

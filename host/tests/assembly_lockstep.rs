@@ -782,9 +782,9 @@ fn the_assembly_demo_grows_a_mesh_drives_it_dissolves_it_and_disperses() {
         let at = o.truth.robot(id).expect("robot").pose;
         let start = if id == 1 {
             let q = pilot_at(disperse_start);
-            puzzlebot_host::assemble::assembly::Pose2::new(q[0], q[1], q[2])
+            puzzlebot_host::assemble::assembly::Pose::new(q[0], q[1], q[2])
         } else {
-            puzzlebot_host::assemble::assembly::Pose2::new(0.0, 0.0, 0.0)
+            puzzlebot_host::assemble::assembly::Pose::new(0.0, 0.0, 0.0)
         };
         let g = goal.resolve(&start, [0.0, 0.0], id == 1);
         assert!(

@@ -22,6 +22,8 @@ pub mod geometry;
 pub mod load;
 pub mod mass;
 pub mod plant;
+#[cfg(feature = "std")]
+pub mod pose;
 pub mod rates;
 #[cfg(feature = "std")]
 pub mod terrain;

@@ -1,7 +1,7 @@
 //! Rough timing of planning (THESIS Algorithm 2) and of one coordinator tick for fleets of
 //! growing size: `cargo run --release -p puzzlebot-assembly --example plan_timing`.
 
-use puzzlebot_assembly::{Coordinator, Pose2, RobotState, ShapeSpec};
+use puzzlebot_assembly::{Coordinator, Pose, RobotState, ShapeSpec};
 use puzzlebot_params::{FleetParams, RobotKind};
 use std::time::Instant;
 
@@ -24,7 +24,7 @@ fn main() {
                 } else {
                     RobotKind::NonPilot
                 },
-                pose: Pose2::new(rnd() * side, rnd() * side, rnd() * 6.0 - 3.0),
+                pose: Pose::new(rnd() * side, rnd() * side, rnd() * 6.0 - 3.0),
             })
             .collect();
         let mut c = Coordinator::from_params(&params);

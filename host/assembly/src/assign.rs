@@ -2,7 +2,7 @@
 //! tree over the distance graph and minimum-distance connection points), Algorithm 2 (align
 //! the goal to the fleet's centre (3.9), convex-first ordering, Hungarian matching), 5.4.3.
 
-use crate::geom::{dist, pair_type, wrap_angle, ConnPoint, PairType, PointRole, Pose2};
+use crate::geom::{dist, pair_type, wrap_angle, ConnPoint, PairType, PointRole, Pose};
 use crate::shape::{GoalPair, Shape, ShapeError, ShapeSpec, CONTACT_TOLERANCE};
 use pathfinding::matrix::Matrix;
 use petgraph::data::Element;
@@ -20,11 +20,11 @@ pub struct RobotState {
     /// Pilot or non-pilot.
     pub kind: RobotKind,
     /// Measured pose (world frame).
-    pub pose: Pose2,
+    pub pose: Pose,
 }
 
 /// The closest compatible pair of connection points of two robots and its distance.
-pub fn closest_points(pa: &Pose2, pb: &Pose2, g: &Geometry) -> Option<(ConnPoint, ConnPoint, f64)> {
+pub fn closest_points(pa: &Pose, pb: &Pose, g: &Geometry) -> Option<(ConnPoint, ConnPoint, f64)> {
     let mut best: Option<(ConnPoint, ConnPoint, f64)> = None;
     for ca in ConnPoint::ALL {
         let wa = pa.transform(ca.position(g));
@@ -48,12 +48,12 @@ pub fn closest_points(pa: &Pose2, pb: &Pose2, g: &Geometry) -> Option<(ConnPoint
 /// connection points. Only robot pairs whose compatible points meet within
 /// [`CONTACT_TOLERANCE`] are edges, so a disconnected configuration yields fewer than n − 1
 /// pairs. Each pair is oriented so that `a` carries the anchor or the knob.
-pub fn find_pairs(poses: &[Pose2], g: &Geometry) -> Vec<GoalPair> {
+pub fn find_pairs(poses: &[Pose], g: &Geometry) -> Vec<GoalPair> {
     find_pairs_within(poses, g, CONTACT_TOLERANCE)
 }
 
 /// [`find_pairs`] with an explicit contact tolerance (m).
-pub fn find_pairs_within(poses: &[Pose2], g: &Geometry, tolerance: f64) -> Vec<GoalPair> {
+pub fn find_pairs_within(poses: &[Pose], g: &Geometry, tolerance: f64) -> Vec<GoalPair> {
     let n = poses.len();
     let mut graph: UnGraph<usize, f64> = UnGraph::with_capacity(n, n * 2);
     let nodes: Vec<_> = (0..n).map(|i| graph.add_node(i)).collect();
@@ -140,19 +140,19 @@ pub fn sort_convex_first(pairs: &mut [GoalPair]) {
 
 /// Shift goal poses so their centroid lies on the robots' centroid (THESIS (3.9):
 /// p'_g = p_g − p̄_g + p̄); headings are kept.
-pub fn align_center(goal: &[Pose2], robots: &[Pose2]) -> Vec<Pose2> {
+pub fn align_center(goal: &[Pose], robots: &[Pose]) -> Vec<Pose> {
     if goal.is_empty() || robots.is_empty() {
         return goal.to_vec();
     }
     let [gx, gy] = mean_position(goal);
     let [rx, ry] = mean_position(robots);
     goal.iter()
-        .map(|p| Pose2::new(p.x - gx + rx, p.y - gy + ry, p.yaw))
+        .map(|p| Pose::new(p.x - gx + rx, p.y - gy + ry, p.yaw))
         .collect()
 }
 
 /// Centroid of the poses' positions (m); the origin for an empty set.
-pub fn mean_position(poses: &[Pose2]) -> [f64; 2] {
+pub fn mean_position(poses: &[Pose]) -> [f64; 2] {
     let n = poses.len().max(1) as f64;
     [
         poses.iter().map(|p| p.x).sum::<f64>() / n,
@@ -161,7 +161,7 @@ pub fn mean_position(poses: &[Pose2]) -> [f64; 2] {
 }
 
 /// Circular mean of headings (rad); 0 for an empty or balanced set.
-pub fn mean_heading(poses: &[Pose2]) -> f64 {
+pub fn mean_heading(poses: &[Pose]) -> f64 {
     let (s, c) = poses
         .iter()
         .fold((0.0, 0.0), |(s, c), p| (s + p.yaw.sin(), c + p.yaw.cos()));
@@ -186,7 +186,7 @@ fn cost(d2: f64) -> i64 {
 /// robot in `robots`, and the total squared distance. Slots with a kind accept only matching
 /// robots.
 pub fn hungarian(
-    goal: &[Pose2],
+    goal: &[Pose],
     kinds: &[crate::shape::SlotKind],
     robots: &[RobotState],
 ) -> Result<(Vec<usize>, f64), PlanError> {
@@ -266,7 +266,7 @@ pub struct Plan {
     /// Heading the shape was placed with (rad).
     pub heading: f64,
     /// World goal pose of each slot (after (3.9) and the heading).
-    pub goal_poses: Vec<Pose2>,
+    pub goal_poses: Vec<Pose>,
     /// Robot filling each slot.
     pub slot_robot: Vec<RobotId>,
     /// Pairs in convex-first order.
@@ -285,7 +285,7 @@ impl Plan {
     }
 
     /// World goal pose of `robot`, if it is in the plan.
-    pub fn goal_of(&self, robot: RobotId) -> Option<Pose2> {
+    pub fn goal_of(&self, robot: RobotId) -> Option<Pose> {
         self.slot_of(robot).map(|s| self.goal_poses[s])
     }
 }
@@ -366,7 +366,7 @@ pub fn assign_connection_pairs(
 ) -> Result<Plan, PlanError> {
     check_robots(robots)?;
     let shape = spec.build(robots.len(), g)?;
-    let poses: Vec<Pose2> = robots.iter().map(|r| r.pose).collect();
+    let poses: Vec<Pose> = robots.iter().map(|r| r.pose).collect();
     let heading = heading.unwrap_or_else(|| mean_heading(&poses));
     let oriented = shape.placed([0.0, 0.0], heading);
     let goal = align_center(&oriented, &poses);
@@ -431,14 +431,14 @@ pub fn assign_around_lane(
             p.kind == PairType::AnchorOpening && ((p.a, p.b) == (a, b) || (p.a, p.b) == (b, a))
         })
     };
-    let mut best: Option<(f64, Vec<Pose2>, Vec<usize>, f64)> = None;
+    let mut best: Option<(f64, Vec<Pose>, Vec<usize>, f64)> = None;
     for (slot, spose) in shape.slots.iter().enumerate() {
         if !kinds[slot].accepts(robots[si].kind) {
             continue;
         }
         // Shape frame F with F ∘ slot = seed pose.
         let frame = sp.compose(&spose.pose.inverse());
-        let goal: Vec<Pose2> = shape.slots.iter().map(|x| frame.compose(&x.pose)).collect();
+        let goal: Vec<Pose> = shape.slots.iter().map(|x| frame.compose(&x.pose)).collect();
         // The lane pilot's slots: ahead of it on its axis, linked to the seed's slot through
         // one slot by anchor pairs.
         let lane_slots: Vec<Option<usize>> = match li {
@@ -481,7 +481,7 @@ pub fn assign_around_lane(
                 .filter(|&r| fixed.iter().all(|f| f.1 != r))
                 .collect();
             let free_robots: Vec<RobotState> = free.iter().map(|&r| robots[r]).collect();
-            let rest_goal: Vec<Pose2> = rest.iter().map(|&k| goal[k]).collect();
+            let rest_goal: Vec<Pose> = rest.iter().map(|&k| goal[k]).collect();
             let rest_kinds: Vec<_> = rest.iter().map(|&k| kinds[k]).collect();
             let Ok((sub, total)) = hungarian(&rest_goal, &rest_kinds, &free_robots) else {
                 continue;
@@ -527,7 +527,7 @@ fn plan_from(
     spec: &ShapeSpec,
     shape: crate::shape::Shape,
     heading: f64,
-    goal: Vec<Pose2>,
+    goal: Vec<Pose>,
     assign: &[usize],
     total: f64,
     robots: &[RobotState],
@@ -580,7 +580,7 @@ mod tests {
         RobotState {
             id,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(x, y, 0.0),
+            pose: Pose::new(x, y, 0.0),
         }
     }
 
@@ -621,10 +621,10 @@ mod tests {
         assert!(p[0].centre_distance < p[2].centre_distance);
     }
 
-    fn brute_force(goal: &[Pose2], robots: &[RobotState]) -> f64 {
+    fn brute_force(goal: &[Pose], robots: &[RobotState]) -> f64 {
         fn rec(
             i: usize,
-            goal: &[Pose2],
+            goal: &[Pose],
             robots: &[RobotState],
             used: &mut Vec<bool>,
             acc: f64,
@@ -669,7 +669,7 @@ mod tests {
         for case in 0..60 {
             let n = 2 + case % 5;
             let m = n + case % 2;
-            let goal: Vec<Pose2> = (0..n).map(|_| Pose2::new(rnd(), rnd(), 0.0)).collect();
+            let goal: Vec<Pose> = (0..n).map(|_| Pose::new(rnd(), rnd(), 0.0)).collect();
             let robots: Vec<RobotState> =
                 (0..m).map(|i| robot(i as RobotId, rnd(), rnd())).collect();
             let kinds = vec![SlotKind::Any; n];
@@ -688,7 +688,7 @@ mod tests {
 
     #[test]
     fn hungarian_respects_slot_kinds() {
-        let goal = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 0.0, 0.0)];
+        let goal = vec![Pose::new(0.0, 0.0, 0.0), Pose::new(1.0, 0.0, 0.0)];
         let mut robots = vec![robot(1, 0.0, 0.0), robot(2, 1.0, 0.0)];
         robots[1].kind = RobotKind::Pilot;
         let (a, _) = hungarian(&goal, &[SlotKind::Pilot, SlotKind::Any], &robots).unwrap();
@@ -699,8 +699,8 @@ mod tests {
 
     #[test]
     fn align_center_moves_centroid() {
-        let goal = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 0.0)];
-        let robots = vec![Pose2::new(5.0, 5.0, 0.0), Pose2::new(7.0, 7.0, 0.0)];
+        let goal = vec![Pose::new(0.0, 0.0, 0.0), Pose::new(2.0, 0.0, 0.0)];
+        let robots = vec![Pose::new(5.0, 5.0, 0.0), Pose::new(7.0, 7.0, 0.0)];
         let a = align_center(&goal, &robots);
         assert!((a[0].x - 5.0).abs() < 1e-12 && (a[0].y - 6.0).abs() < 1e-12);
         assert!((a[1].x - 7.0).abs() < 1e-12);
@@ -782,7 +782,7 @@ mod props {
             let robots: Vec<RobotState> = pts.iter().enumerate().map(|(i, &(x, y, yaw))| RobotState {
                 id: i as RobotId * 3 + 1,
                 kind: RobotKind::NonPilot,
-                pose: Pose2::new(x, y, yaw),
+                pose: Pose::new(x, y, yaw),
             }).collect();
             let spec = if mesh { ShapeSpec::Mesh { rows: 2 } } else { ShapeSpec::Line };
             let plan = assign_connection_pairs(&spec, &robots, None, &g).unwrap();

@@ -2,7 +2,7 @@
 //! rendezvous / anti-rendezvous (THESIS (2.3), (2.4)), the Jacobian pseudo-inverse point
 //! controller (THESIS (3.2)) and trajectories for the tracking behaviour (THESIS (5.26)).
 
-use crate::geom::{wrap_angle, Pose2};
+use crate::geom::{wrap_angle, Pose};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -145,7 +145,7 @@ pub fn rendezvous(positions: &[[f64; 2]], gain: f64, anti: bool) -> Vec<[f64; 2]
 
 /// THESIS (3.2): u = J⁺ [Δx, Δy, Δθ] with Δθ = atan(Δy/Δx) − θ wrapped into (−π/2, π/2]
 /// (so the robot may back up instead of turning round). Returns (v, ω).
-pub fn point_command(pose: &Pose2, dx: f64, dy: f64, heading_gain: f64) -> (f64, f64) {
+pub fn point_command(pose: &Pose, dx: f64, dy: f64, heading_gain: f64) -> (f64, f64) {
     let (s, c) = pose.yaw.sin_cos();
     let v = c * dx + s * dy;
     if dx.hypot(dy) < 1e-12 {
@@ -164,12 +164,12 @@ pub fn point_command(pose: &Pose2, dx: f64, dy: f64, heading_gain: f64) -> (f64,
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Trajectory {
     /// (t, pose) waypoints, t strictly increasing (s, relative to the start of the behaviour).
-    pub waypoints: Vec<(f64, Pose2)>,
+    pub waypoints: Vec<(f64, Pose)>,
 }
 
 impl Trajectory {
     /// Reference pose at time `t` (clamped to the ends).
-    pub fn sample(&self, t: f64) -> Option<Pose2> {
+    pub fn sample(&self, t: f64) -> Option<Pose> {
         let w = &self.waypoints;
         let first = w.first()?;
         if t <= first.0 {
@@ -180,7 +180,7 @@ impl Trajectory {
             let (t1, p1) = pair[1];
             if t <= t1 {
                 let s = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
-                return Some(Pose2::new(
+                return Some(Pose::new(
                     p0.x + s * (p1.x - p0.x),
                     p0.y + s * (p1.y - p0.y),
                     wrap_angle(p0.yaw + s * wrap_angle(p1.yaw - p0.yaw)),
@@ -262,7 +262,7 @@ mod tests {
 
     #[test]
     fn point_command_backs_up_rather_than_turning_round() {
-        let pose = Pose2::new(0.0, 0.0, 0.0);
+        let pose = Pose::new(0.0, 0.0, 0.0);
         let (v, w) = point_command(&pose, -0.1, 0.0, 1.0);
         assert!(v < 0.0 && w.abs() < 1e-12);
         let (v, w) = point_command(&pose, 0.1, 0.1, 1.0);
@@ -273,8 +273,8 @@ mod tests {
     fn trajectory_interpolates_and_clamps() {
         let tr = Trajectory {
             waypoints: vec![
-                (0.0, Pose2::new(0.0, 0.0, 0.0)),
-                (2.0, Pose2::new(1.0, 0.0, 0.0)),
+                (0.0, Pose::new(0.0, 0.0, 0.0)),
+                (2.0, Pose::new(1.0, 0.0, 0.0)),
             ],
         };
         assert!((tr.sample(1.0).unwrap().x - 0.5).abs() < 1e-12);

@@ -1,4 +1,4 @@
-//! Planar poses, the six connection points of a PuzzleBot and the pair types they form
+//! The six connection points of a PuzzleBot and the pair types they form
 //! (THESIS 3.2 Fig 3.2, 5.4.1, 5.5.5 Fig 5.12–5.14).
 
 use puzzlebot_params::geometry::Geometry;
@@ -7,69 +7,11 @@ use std::f64::consts::{FRAC_PI_2, PI};
 
 pub use puzzlebot_params::angle::wrap_angle;
 
-/// A planar pose (x, y in m, yaw in rad), THESIS 3.2: p_i = [x_i, y_i, θ_i].
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Pose2 {
-    /// x in the world frame (m).
-    pub x: f64,
-    /// y in the world frame (m).
-    pub y: f64,
-    /// Heading (rad), x forward, counter-clockwise positive.
-    pub yaw: f64,
-}
+/// The planar pose (x, y in m, yaw in rad), THESIS 3.2: p_i = [x_i, y_i, θ_i].
+pub use puzzlebot_params::pose::Pose;
 
-impl Pose2 {
-    /// A pose from its parts.
-    pub const fn new(x: f64, y: f64, yaw: f64) -> Self {
-        Pose2 { x, y, yaw }
-    }
-
-    /// Position as an array.
-    pub fn xy(&self) -> [f64; 2] {
-        [self.x, self.y]
-    }
-
-    /// A body-frame point in the world frame: R(θ) p + [x, y] (THESIS 4.4).
-    pub fn transform(&self, p: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.yaw.sin_cos();
-        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
-    }
-
-    /// A world point in this body frame: R(−θ)(p − [x, y]) (THESIS 5.15).
-    pub fn inverse_transform(&self, p: [f64; 2]) -> [f64; 2] {
-        let (s, c) = self.yaw.sin_cos();
-        let dx = p[0] - self.x;
-        let dy = p[1] - self.y;
-        [c * dx + s * dy, -s * dx + c * dy]
-    }
-
-    /// Composition `self ∘ other` (other expressed in this frame).
-    pub fn compose(&self, other: &Pose2) -> Pose2 {
-        let [x, y] = self.transform([other.x, other.y]);
-        Pose2::new(x, y, wrap_angle(self.yaw + other.yaw))
-    }
-
-    /// `other` expressed in this frame: self⁻¹ ∘ other.
-    pub fn relative(&self, other: &Pose2) -> Pose2 {
-        let [x, y] = self.inverse_transform([other.x, other.y]);
-        Pose2::new(x, y, wrap_angle(other.yaw - self.yaw))
-    }
-
-    /// The inverse transform: self⁻¹, with self ∘ self⁻¹ = identity.
-    pub fn inverse(&self) -> Pose2 {
-        self.relative(&Pose2::default())
-    }
-
-    /// Euclidean distance between the positions.
-    pub fn distance(&self, other: &Pose2) -> f64 {
-        (self.x - other.x).hypot(self.y - other.y)
-    }
-
-    /// True when every component is finite.
-    pub fn is_finite(&self) -> bool {
-        self.x.is_finite() && self.y.is_finite() && self.yaw.is_finite()
-    }
-}
+/// The coordinator's name for [`Pose`].
+pub use puzzlebot_params::pose::Pose as Pose2;
 
 /// Distance between two points.
 pub fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -261,12 +203,12 @@ mod tests {
 
     #[test]
     fn transforms_round_trip() {
-        let p = Pose2::new(0.3, -0.2, 1.1);
+        let p = Pose::new(0.3, -0.2, 1.1);
         let w = p.transform([0.01, 0.02]);
         let b = p.inverse_transform(w);
         assert!((b[0] - 0.01).abs() < 1e-12 && (b[1] - 0.02).abs() < 1e-12);
         assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-12);
-        let q = Pose2::new(-0.1, 0.4, -2.0);
+        let q = Pose::new(-0.1, 0.4, -2.0);
         let r = p.relative(&q);
         let back = p.compose(&r);
         assert!(back.distance(&q) < 1e-12 && wrap_angle(back.yaw - q.yaw).abs() < 1e-12);

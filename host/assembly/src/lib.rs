@@ -32,7 +32,7 @@ pub use assign::{
 pub use coordinator::{
     Coordinator, CoordinatorConfig, Event, EventKind, MaintainPair, Mode, RobotTask, Role, Tick,
 };
-pub use geom::{ConnPoint, PairType, Pose2};
+pub use geom::{ConnPoint, PairType, Pose};
 pub use info::{shape_info, ShapeInfo};
 pub use pair::{PairStatus, PairTolerances, TrackedPair, Transition};
 pub use puzzlebot_protocol::messages::RobotId;

@@ -5,7 +5,7 @@
 //! [`puzzlebot_params::coupling`] ([`Coupling::anchor_seated`], [`Coupling::knob_seated`]).
 
 use crate::assign::PlannedPair;
-use crate::geom::{wrap_angle, ConnPoint, PairType, Pose2};
+use crate::geom::{wrap_angle, ConnPoint, PairType, Pose};
 use puzzlebot_params::coupling::{AnchorProbe, Coupling, KnobProbe};
 use puzzlebot_params::geometry::Geometry;
 use serde::{Deserialize, Serialize};
@@ -103,9 +103,9 @@ pub struct PairMeasure {
 
 /// Measure a pair (THESIS 5.11–5.15: `a`'s points expressed in `b`'s body frame).
 pub fn measure(
-    pose_a: &Pose2,
+    pose_a: &Pose,
     point_a: ConnPoint,
-    pose_b: &Pose2,
+    pose_b: &Pose,
     point_b: ConnPoint,
     relative_yaw: f64,
     g: &Geometry,
@@ -311,8 +311,8 @@ impl TrackedPair {
     pub fn update(
         &mut self,
         t: f64,
-        pose_a: &Pose2,
-        pose_b: &Pose2,
+        pose_a: &Pose,
+        pose_b: &Pose,
         g: &Geometry,
         tol: &PairTolerances,
     ) -> Vec<Transition> {
@@ -439,14 +439,14 @@ mod tests {
     /// Robot b at the origin; robot a in front of it with its back face centre `gap` ahead of
     /// b's opening, `lat` to the side, and a turned by `yaw` about that point (the anchor
     /// pivot).
-    fn anchor_poses(gap: f64, lat: f64, yaw: f64) -> (Pose2, Pose2) {
+    fn anchor_poses(gap: f64, lat: f64, yaw: f64) -> (Pose, Pose) {
         let back = [0.025 + gap, lat];
-        let a = Pose2::new(
+        let a = Pose::new(
             back[0] + 0.025 * yaw.cos(),
             back[1] + 0.025 * yaw.sin(),
             yaw,
         );
-        (a, Pose2::new(0.0, 0.0, 0.0))
+        (a, Pose::new(0.0, 0.0, 0.0))
     }
 
     #[test]
@@ -549,8 +549,8 @@ mod tests {
     /// Robot a of [`knob_pair`] with the hole robot b at the origin: a (knob on its left)
     /// sits to b's right, shifted back by half a body (a.left_front meets b.right_back), then
     /// `along` forward and `gap` further out.
-    fn knob_place(along: f64, gap: f64) -> Pose2 {
-        Pose2::new(-0.025 + along, -0.05 - gap, 0.0)
+    fn knob_place(along: f64, gap: f64) -> Pose {
+        Pose::new(-0.025 + along, -0.05 - gap, 0.0)
     }
 
     #[test]
@@ -558,7 +558,7 @@ mod tests {
         let g = Geometry::default();
         let tol = PairTolerances::default();
         let mut p = TrackedPair::new(knob_pair(), 0.0);
-        let (place, b) = (knob_place, Pose2::new(0.0, 0.0, 0.0));
+        let (place, b) = (knob_place, Pose::new(0.0, 0.0, 0.0));
         p.update(0.0, &place(0.002, 0.0), &b, &g, &tol);
         assert_eq!(p.status, PairStatus::Decoupled, "2 mm off is not aligned");
         p.update(0.1, &place(0.0005, 0.003), &b, &g, &tol);
@@ -580,7 +580,7 @@ mod tests {
             tol.knob_release
         );
         let mut p = TrackedPair::new(knob_pair(), 0.0);
-        let (place, b) = (knob_place, Pose2::new(0.0, 0.0, 0.0));
+        let (place, b) = (knob_place, Pose::new(0.0, 0.0, 0.0));
         for t in [0.0, 0.1, 0.2, 0.6] {
             p.update(t, &place(0.0, 0.0), &b, &g, &tol);
         }

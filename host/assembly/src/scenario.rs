@@ -26,7 +26,7 @@
 use crate::assign::RobotState;
 use crate::behaviour::{Trajectory, Wiggle};
 use crate::coordinator::{Coordinator, EventKind, Mode, Role, Tick};
-use crate::geom::Pose2;
+use crate::geom::Pose;
 use crate::pair::PairStatus;
 use crate::shape::{Shape, ShapeSpec};
 use puzzlebot_params::geometry::Geometry;
@@ -261,7 +261,7 @@ pub enum Behaviour {
     /// The shape centre goes to a goal (THESIS (4.6)).
     GoTo {
         /// Goal (yaw used when given).
-        goal: Pose2,
+        goal: Pose,
         /// Done within this distance (m).
         tolerance: f64,
     },
@@ -326,11 +326,11 @@ pub enum Goal {
 impl Goal {
     /// The goal point for a robot at `pose` when the step starts, the step's robots centred
     /// at `centre`; `straight_only`: the robot cannot turn (a pilot alone).
-    pub fn resolve(&self, pose: &Pose2, centre: [f64; 2], straight_only: bool) -> Pose2 {
+    pub fn resolve(&self, pose: &Pose, centre: [f64; 2], straight_only: bool) -> Pose {
         let (s, c) = pose.yaw.sin_cos();
-        let ahead = |d: f64| Pose2::new(pose.x + d * c, pose.y + d * s, pose.yaw);
+        let ahead = |d: f64| Pose::new(pose.x + d * c, pose.y + d * s, pose.yaw);
         match *self {
-            Goal::At { x, y } => Pose2::new(x, y, 0.0),
+            Goal::At { x, y } => Pose::new(x, y, 0.0),
             Goal::Ahead(d) => ahead(d),
             Goal::Away(d) => {
                 let (dx, dy) = (pose.x - centre[0], pose.y - centre[1]);
@@ -339,7 +339,7 @@ impl Goal {
                     // Along the axis, on the side away from the centre (ahead at the centre).
                     ahead(if dx * c + dy * s < 0.0 { -d } else { d })
                 } else {
-                    Pose2::new(pose.x + d * dx / r, pose.y + d * dy / r, pose.yaw)
+                    Pose::new(pose.x + d * dx / r, pose.y + d * dy / r, pose.yaw)
                 }
             }
         }
@@ -549,8 +549,8 @@ impl Scenario {
                 } else if let Some(goal) = &m.go_to {
                     let v = goal.get_ref();
                     let pose = match v.as_slice() {
-                        [x, y] => Pose2::new(x.0, y.0, f64::NAN),
-                        [x, y, yaw] => Pose2::new(x.0, y.0, yaw.0.to_radians()),
+                        [x, y] => Pose::new(x.0, y.0, f64::NAN),
+                        [x, y, yaw] => Pose::new(x.0, y.0, yaw.0.to_radians()),
                         _ => {
                             return Err(invalid(
                                 goal.span(),
@@ -571,8 +571,8 @@ impl Scenario {
                     let mut waypoints = Vec::new();
                     for (i, row) in tr.get_ref().iter().enumerate() {
                         let (t, pose) = match row.as_slice() {
-                            [t, x, y] => (t.0, Pose2::new(x.0, y.0, 0.0)),
-                            [t, x, y, yaw] => (t.0, Pose2::new(x.0, y.0, yaw.0.to_radians())),
+                            [t, x, y] => (t.0, Pose::new(x.0, y.0, 0.0)),
+                            [t, x, y, yaw] => (t.0, Pose::new(x.0, y.0, yaw.0.to_radians())),
                             _ => {
                                 return Err(invalid(
                                     tr.span(),
@@ -583,7 +583,7 @@ impl Scenario {
                         };
                         if waypoints
                             .last()
-                            .is_some_and(|&(tp, _): &(f64, Pose2)| t <= tp)
+                            .is_some_and(|&(tp, _): &(f64, Pose)| t <= tp)
                         {
                             return Err(invalid(
                                 tr.span(),

@@ -2,7 +2,7 @@
 //! poses or as an assembly graph of robots and ports (in the spirit of the AAM paper, §3).
 
 use crate::assign::find_pairs;
-use crate::geom::{body_corners, pair_type, wrap_angle, ConnPoint, PairType, Pose2};
+use crate::geom::{body_corners, pair_type, wrap_angle, ConnPoint, PairType, Pose};
 use puzzlebot_params::geometry::Geometry;
 use puzzlebot_params::RobotKind;
 use serde::{Deserialize, Serialize};
@@ -40,7 +40,7 @@ impl SlotKind {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Slot {
     /// Pose in the shape frame (origin at the slot centroid, x = assembly forward).
-    pub pose: Pose2,
+    pub pose: Pose,
     /// Which robots may fill it.
     pub kind: SlotKind,
     /// Optional name (from a shape file).
@@ -166,7 +166,7 @@ impl Shape {
     }
 
     /// Slot poses.
-    pub fn poses(&self) -> Vec<Pose2> {
+    pub fn poses(&self) -> Vec<Pose> {
         self.slots.iter().map(|s| s.pose).collect()
     }
 
@@ -181,7 +181,7 @@ impl Shape {
             ));
         }
         let l = f64::from(g.length);
-        let poses = (0..n).map(|k| Pose2::new(k as f64 * l, 0.0, 0.0)).collect();
+        let poses = (0..n).map(|k| Pose::new(k as f64 * l, 0.0, 0.0)).collect();
         Shape::from_poses("line", poses, g)
     }
 
@@ -214,7 +214,7 @@ impl Shape {
             let count = per_row.min(left - rows_after);
             let offset = if r % 2 == 1 { 0.5 * l } else { 0.0 };
             for c in 0..count {
-                poses.push(Pose2::new(offset + c as f64 * l, r as f64 * w, 0.0));
+                poses.push(Pose::new(offset + c as f64 * l, r as f64 * w, 0.0));
             }
             left -= count;
         }
@@ -223,7 +223,7 @@ impl Shape {
 
     /// A shape from relative poses; checks that the bodies do not overlap and that the shape
     /// is one connected assembly. The poses are re-centred on their centroid.
-    pub fn from_poses(name: &str, poses: Vec<Pose2>, g: &Geometry) -> Result<Shape, ShapeError> {
+    pub fn from_poses(name: &str, poses: Vec<Pose>, g: &Geometry) -> Result<Shape, ShapeError> {
         let slots = poses
             .into_iter()
             .map(|pose| Slot {
@@ -295,8 +295,8 @@ impl Shape {
     }
 
     /// This shape rotated by `yaw` and moved to `centre` (world poses of the slots).
-    pub fn placed(&self, centre: [f64; 2], yaw: f64) -> Vec<Pose2> {
-        let frame = Pose2::new(centre[0], centre[1], yaw);
+    pub fn placed(&self, centre: [f64; 2], yaw: f64) -> Vec<Pose> {
+        let frame = Pose::new(centre[0], centre[1], yaw);
         self.slots.iter().map(|s| frame.compose(&s.pose)).collect()
     }
 
@@ -516,7 +516,7 @@ impl ShapeFile {
                 .enumerate()
                 .map(|(i, s)| match (s.x, s.y) {
                     (Some(x), Some(y)) => Ok(Slot {
-                        pose: Pose2::new(x, y, yaws[i].unwrap_or(0.0)),
+                        pose: Pose::new(x, y, yaws[i].unwrap_or(0.0)),
                         kind: s.kind,
                         name: s.name.clone(),
                     }),
@@ -611,12 +611,12 @@ impl ShapeFile {
             adj[a].push((b, l.from_port, l.to_port, k));
             adj[b].push((a, l.to_port, l.from_port, k));
         }
-        let root = Pose2::new(
+        let root = Pose::new(
             self.slot[0].x.unwrap_or(0.0),
             self.slot[0].y.unwrap_or(0.0),
             yaws[0].unwrap_or(0.0),
         );
-        let mut poses: Vec<Option<Pose2>> = vec![None; self.slot.len()];
+        let mut poses: Vec<Option<Pose>> = vec![None; self.slot.len()];
         poses[0] = Some(root);
         let mut queue = VecDeque::from([0usize]);
         while let Some(i) = queue.pop_front() {
@@ -671,12 +671,12 @@ impl ShapeFile {
 
 /// Pose of a robot whose `port_j` meets `port_i` of the robot at `pi`: the ports coincide
 /// and their outward normals are opposite (AAM paper: port vectors of adjacent modules).
-pub fn mate(pi: &Pose2, port_i: ConnPoint, port_j: ConnPoint, g: &Geometry) -> Pose2 {
+pub fn mate(pi: &Pose, port_i: ConnPoint, port_j: ConnPoint, g: &Geometry) -> Pose {
     let yaw_j = wrap_angle(pi.yaw + port_i.normal() - port_j.normal() + std::f64::consts::PI);
     let ci = pi.transform(port_i.position(g));
     let rel = port_j.position(g);
     let (s, c) = yaw_j.sin_cos();
-    Pose2::new(
+    Pose::new(
         ci[0] - (c * rel[0] - s * rel[1]),
         ci[1] - (s * rel[0] + c * rel[1]),
         yaw_j,

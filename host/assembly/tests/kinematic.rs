@@ -6,7 +6,7 @@
 //! Direct commands (a lone robot's staged approach) are executed as given.
 
 use puzzlebot_assembly::coordinator::{Coordinator, Role, Tick};
-use puzzlebot_assembly::{EventKind, PairStatus, Pose2, RobotState, ShapeSpec};
+use puzzlebot_assembly::{EventKind, PairStatus, Pose, RobotState, ShapeSpec};
 use puzzlebot_params::{FleetParams, RobotKind};
 use std::collections::BTreeMap;
 
@@ -16,7 +16,7 @@ const W_MAX: f64 = 2.0;
 
 /// (v, ω) that moves body point `p` (body frame) of a robot at `pose` towards `target` (world)
 /// at rate `k`: ṗ_w = R(θ)[v − ω p_y, ω p_x].
-fn steer(pose: &Pose2, p: [f64; 2], target: [f64; 2], k: f64, straight: bool) -> (f64, f64) {
+fn steer(pose: &Pose, p: [f64; 2], target: [f64; 2], k: f64, straight: bool) -> (f64, f64) {
     let w = pose.transform(p);
     let (s, c) = pose.yaw.sin_cos();
     let (ex, ey) = (k * (target[0] - w[0]), k * (target[1] - w[1]));
@@ -28,8 +28,8 @@ fn steer(pose: &Pose2, p: [f64; 2], target: [f64; 2], k: f64, straight: bool) ->
     ((bx + om * p[1]).clamp(-V_MAX, V_MAX), om)
 }
 
-fn step_pose(p: &Pose2, v: f64, w: f64) -> Pose2 {
-    Pose2::new(
+fn step_pose(p: &Pose, v: f64, w: f64) -> Pose {
+    Pose::new(
         p.x + v * p.yaw.cos() * DT,
         p.y + v * p.yaw.sin() * DT,
         p.yaw + w * DT,
@@ -89,7 +89,7 @@ fn advance(robots: &mut [RobotState], tick: &Tick) {
                 let rel_p = lp.inverse_transform(r.pose.xy());
                 let rel_yaw = r.pose.yaw - lp.yaw;
                 let [x, y] = next.transform(rel_p);
-                r.pose = Pose2::new(x, y, next.yaw + rel_yaw);
+                r.pose = Pose::new(x, y, next.yaw + rel_yaw);
             }
             _ => {
                 let (v, w) = cmd.get(&r.id).copied().unwrap_or((0.0, 0.0));
@@ -126,7 +126,7 @@ fn np(id: u16, x: f64, y: f64, yaw: f64) -> RobotState {
     RobotState {
         id,
         kind: RobotKind::NonPilot,
-        pose: Pose2::new(x, y, yaw),
+        pose: Pose::new(x, y, yaw),
     }
 }
 

@@ -62,14 +62,14 @@ fn main() {
         let out = mpc.tick(&robots, &[]).expect("tick");
         let r = &out.robots[0];
         for _ in 0..10 {
-            me = me.step(r.command, 0.01);
+            me = r.command.drive(&me, 0.01);
         }
-        let head = me.transform_point(g.anchor_head);
+        let head = me.transform(g.anchor_head);
         let d = (head[0] - g.anchor_opening[0] - off).hypot(head[1]);
-        if stage_pre && d < 0.005 && me.theta.sin().abs() < 0.2 {
+        if stage_pre && d < 0.005 && me.yaw.sin().abs() < 0.2 {
             stage_pre = false;
         }
-        if !stage_pre && d < 0.0035 && me.theta.sin().abs() < 0.479 {
+        if !stage_pre && d < 0.0035 && me.yaw.sin().abs() < 0.479 {
             println!("aligned at t={:.1}s pose {me:?}", f64::from(t + 1) * 0.1);
             return;
         }

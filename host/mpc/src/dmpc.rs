@@ -163,7 +163,7 @@ impl DistributedMpc {
                     let mut x = r.pose;
                     xs.push(x);
                     for ui in u {
-                        x = x.step(ui, cfg.dt);
+                        x = ui.drive(&x, cfg.dt);
                         xs.push(x);
                     }
                     xs
@@ -215,7 +215,7 @@ impl DistributedMpc {
                         points.push(PointTerm {
                             point: own.pos,
                             angle: own.angle,
-                            targets: tr.iter().map(|p| p.compose(&off)).collect(),
+                            targets: tr.iter().map(|p| p.compose_unwrapped(&off)).collect(),
                             weights: stage(weights),
                             heading: check_w(r.id, *heading)?,
                         });
@@ -284,7 +284,7 @@ impl DistributedMpc {
                         points.push(PointTerm {
                             point: [0.0, 0.0],
                             angle: 0.0,
-                            targets: tr.iter().map(|p| p.compose(offset)).collect(),
+                            targets: tr.iter().map(|p| p.compose_unwrapped(offset)).collect(),
                             weights: stage(weights),
                             heading: check_w(r.id, *heading)?,
                         });
@@ -326,7 +326,10 @@ impl DistributedMpc {
                     points.push(PointTerm {
                         point: own_point,
                         angle: 0.0,
-                        targets: tr.iter().map(|q| q.compose(&target_offset)).collect(),
+                        targets: tr
+                            .iter()
+                            .map(|q| q.compose_unwrapped(&target_offset))
+                            .collect(),
                         weights: maint_w.clone(),
                         heading: cfg.maintain_heading,
                     });

@@ -101,8 +101,8 @@ pub(crate) fn point_in_frame(
     c: [f64; 2],
     b: &Pose,
 ) -> ([f64; 2], [[f64; 3]; 2], [[f64; 3]; 2]) {
-    let (sa, ca) = a.theta.sin_cos();
-    let (sb, cb) = b.theta.sin_cos();
+    let (sa, ca) = a.yaw.sin_cos();
+    let (sb, cb) = b.yaw.sin_cos();
     let rc = [ca * c[0] - sa * c[1], sa * c[0] + ca * c[1]];
     let w = [a.x + rc[0] - b.x, a.y + rc[1] - b.y];
     let q = [cb * w[0] + sb * w[1], -sb * w[0] + cb * w[1]];
@@ -134,7 +134,7 @@ impl ProblemInstance {
         let mut x = self.x0;
         xs.push(x);
         for &ui in u {
-            x = x.step(ui, self.dt);
+            x = ui.drive(&x, self.dt);
             xs.push(x);
         }
         xs
@@ -151,11 +151,11 @@ impl ProblemInstance {
                     continue;
                 }
                 let tg = t.targets[k.min(t.targets.len() - 1)];
-                let p = x.transform_point(t.point);
+                let p = x.transform(t.point);
                 let d = [p[0] - tg.x, p[1] - tg.y];
                 let mut c = d[0] * d[0] + d[1] * d[1];
                 if t.heading > 0.0 {
-                    let r = (0.5 * (x.theta + t.angle - tg.theta)).tan();
+                    let r = (0.5 * (x.yaw + t.angle - tg.yaw)).tan();
                     c += t.heading * r * r;
                 }
                 j += w * c;
@@ -377,14 +377,14 @@ impl Builder {
         let xs = inst.rollout(ubar);
         let mut zbar: Vec<f64> = ubar.iter().flat_map(|u| [u.v, u.omega]).collect();
         if !condensed {
-            zbar.extend(xs[1..].iter().flat_map(|x| [x.x, x.y, x.theta]));
+            zbar.extend(xs[1..].iter().flat_map(|x| [x.x, x.y, x.yaw]));
         }
         self.xbar = xs.clone();
         if !condensed {
             // Linearised dynamics (5.2) as equalities, first rows:
             // x_{k+1} − A_k x_k − B_k u_k = x̄_{k+1} − A_k x̄_k − B_k ū_k.
             for k in 0..h {
-                let (sn, cs) = xs[k].theta.sin_cos();
+                let (sn, cs) = xs[k].yaw.sin_cos();
                 let v = ubar[k].v;
                 let nx = nu + 3 * k; // columns of x_{k+1}
                 let a = [
@@ -393,8 +393,8 @@ impl Builder {
                     [0.0, 0.0, 1.0],
                 ];
                 let b = [[dt * cs, 0.0], [dt * sn, 0.0], [0.0, dt]];
-                let xk = [xs[k].x, xs[k].y, xs[k].theta];
-                let xk1 = [xs[k + 1].x, xs[k + 1].y, xs[k + 1].theta];
+                let xk = [xs[k].x, xs[k].y, xs[k].yaw];
+                let xk1 = [xs[k + 1].x, xs[k + 1].y, xs[k + 1].yaw];
                 for r in 0..3 {
                     let mut rhs = xk1[r];
                     for c in 0..3 {
@@ -426,7 +426,7 @@ impl Builder {
         self.sens.clear();
         self.sens.resize(3 * n * (h + 1), 0.0);
         for k in 0..h {
-            let (s, c) = xs[k].theta.sin_cos();
+            let (s, c) = xs[k].yaw.sin_cos();
             let v = ubar[k].v;
             let (cur, next) = self.sens.split_at_mut(3 * n * (k + 1));
             let cur = &cur[3 * n * k..];
@@ -451,8 +451,8 @@ impl Builder {
                 }
                 let x = &xs[k];
                 let tg = t.targets[k.min(t.targets.len() - 1)];
-                let (sn, cs) = x.theta.sin_cos();
-                let p = x.transform_point(t.point);
+                let (sn, cs) = x.yaw.sin_cos();
+                let p = x.transform(t.point);
                 let dth = [
                     -sn * t.point[0] - cs * t.point[1],
                     cs * t.point[0] - sn * t.point[1],
@@ -460,7 +460,7 @@ impl Builder {
                 self.state_residual(k, w, p[0] - tg.x, [1.0, 0.0, dth[0]], &zbar);
                 self.state_residual(k, w, p[1] - tg.y, [0.0, 1.0, dth[1]], &zbar);
                 if t.heading > 0.0 {
-                    let d = wrap(x.theta + t.angle - tg.theta)
+                    let d = wrap(x.yaw + t.angle - tg.yaw)
                         .clamp(-MAX_LINEARISED_ANGLE, MAX_LINEARISED_ANGLE);
                     let r = (0.5 * d).tan();
                     let jr = 0.5 * (1.0 + r * r);
@@ -591,7 +591,7 @@ impl Builder {
         for c in &cons {
             if !condensed {
                 let base = nu + 3 * (c.k - 1);
-                let xk = [xs[c.k].x, xs[c.k].y, xs[c.k].theta];
+                let xk = [xs[c.k].x, xs[c.k].y, xs[c.k].yaw];
                 let rhs = -c.value + (0..3).map(|i| c.grad[i] * xk[i]).sum::<f64>();
                 let r = self.qp.new_row(rhs);
                 for i in 0..3 {
@@ -639,7 +639,7 @@ impl Builder {
         if !self.condensed {
             let base = 2 * (self.xbar.len() - 1) + 3 * (k - 1);
             let x = &self.xbar[k];
-            let r0 = rbar - (jx[0] * x.x + jx[1] * x.y + jx[2] * x.theta);
+            let r0 = rbar - (jx[0] * x.x + jx[1] * x.y + jx[2] * x.yaw);
             self.qp
                 .add_sparse_residual(w, r0, &[base, base + 1, base + 2], &jx);
             return;
@@ -663,7 +663,7 @@ mod tests {
         let b = Pose::new(0.1, 0.25, -1.1);
         let c = [-0.032, 0.01];
         let (q, ja, jb) = point_in_frame(&a, c, &b);
-        let direct = b.inverse_transform_point(a.transform_point(c));
+        let direct = b.inverse_transform(a.transform(c));
         assert!((q[0] - direct[0]).abs() < 1e-12 && (q[1] - direct[1]).abs() < 1e-12);
         let h = 1e-6;
         for i in 0..3 {
@@ -672,7 +672,7 @@ mod tests {
                 match i {
                     0 => p.x += s,
                     1 => p.y += s,
-                    _ => p.theta += s,
+                    _ => p.yaw += s,
                 }
                 p
             };

@@ -7,58 +7,9 @@ use serde::{Deserialize, Serialize};
 /// Robot identifier (the protocol's id).
 pub use puzzlebot_protocol::messages::RobotId;
 
-/// Planar pose of a robot body frame in the world frame (m, m, rad).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Pose {
-    /// x position (m).
-    pub x: f64,
-    /// y position (m).
-    pub y: f64,
-    /// Heading θ (rad); any real value, wrapped where it matters.
-    pub theta: f64,
-}
-
-impl Pose {
-    /// A pose from its parts.
-    pub const fn new(x: f64, y: f64, theta: f64) -> Self {
-        Pose { x, y, theta }
-    }
-
-    /// World position of a point given in this body frame: R(θ) c + p (THESIS 4.4).
-    pub fn transform_point(&self, c: [f64; 2]) -> [f64; 2] {
-        let (s, co) = self.theta.sin_cos();
-        [self.x + co * c[0] - s * c[1], self.y + s * c[0] + co * c[1]]
-    }
-
-    /// Body-frame coordinates of a world point: R(θ)ᵀ (w − p) (THESIS 5.11–5.15).
-    pub fn inverse_transform_point(&self, w: [f64; 2]) -> [f64; 2] {
-        let (s, co) = self.theta.sin_cos();
-        let dx = w[0] - self.x;
-        let dy = w[1] - self.y;
-        [co * dx + s * dy, -s * dx + co * dy]
-    }
-
-    /// Composition `self ∘ offset`: the world pose of a frame given relative to this one.
-    pub fn compose(&self, offset: &Pose) -> Pose {
-        let p = self.transform_point([offset.x, offset.y]);
-        Pose::new(p[0], p[1], self.theta + offset.theta)
-    }
-
-    /// One Euler step of the unicycle, THESIS (5.2).
-    pub fn step(&self, u: Command, dt: f64) -> Pose {
-        let (s, c) = self.theta.sin_cos();
-        Pose::new(
-            self.x + u.v * c * dt,
-            self.y + u.v * s * dt,
-            self.theta + u.omega * dt,
-        )
-    }
-
-    /// True when every field is finite.
-    pub fn is_finite(&self) -> bool {
-        self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
-    }
-}
+/// Planar pose of a robot body frame in the world frame (m, m, rad); the heading of
+/// predicted trajectories is not wrapped.
+pub use puzzlebot_params::pose::Pose;
 
 /// Body velocity command (v in m/s, ω in rad/s): the MPC input, THESIS 5.4.1.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -76,6 +27,12 @@ impl Command {
     /// A command from its parts.
     pub const fn new(v: f64, omega: f64) -> Self {
         Command { v, omega }
+    }
+
+    /// The pose after driving this command for `dt` (s) from `from`: one Euler step of the
+    /// unicycle, THESIS (5.2).
+    pub fn drive(self, from: &Pose, dt: f64) -> Pose {
+        from.unicycle_step(self.v, self.omega, dt)
     }
 }
 

@@ -50,7 +50,7 @@ fn pilot_plans_stay_in_its_butterfly() {
             "{:?}",
             o.plan
         );
-        pose = pose.step(o.command, 0.1);
+        pose = o.command.drive(&pose, 0.1);
     }
     assert!(
         pose.x.hypot(pose.y) > 0.05,
@@ -132,7 +132,7 @@ fn go_to_goal_and_velocity_fitting_behave() {
             }],
         };
         let out = mpc.tick(&[r], &[]).unwrap();
-        pose = pose.step(out.robots[0].command, 0.1);
+        pose = out.robots[0].command.drive(&pose, 0.1);
     }
     assert!(
         (pose.x - 0.2).hypot(pose.y - 0.1) < 0.005,
@@ -154,7 +154,7 @@ fn go_to_goal_and_velocity_fitting_behave() {
             }],
         };
         last = mpc.tick(&[r], &[]).unwrap().robots[0].command;
-        pose = pose.step(last, 0.1);
+        pose = last.drive(&pose, 0.1);
     }
     assert!(
         (last.v - target.v).abs() < 2e-3 && (last.omega - target.omega).abs() < 2e-2,
@@ -199,7 +199,7 @@ fn acceleration_box_is_respected() {
         }
         max_dv = max_dv.max((o.command.v - prev.v).abs());
         prev = o.command;
-        pose = pose.step(o.command, dt);
+        pose = o.command.drive(&pose, dt);
     }
     assert!(
         max_dv > 0.9 * 0.2 * dt,

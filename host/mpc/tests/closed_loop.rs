@@ -11,7 +11,7 @@ fn limits() -> Limits {
 fn simulate(p: Pose, u: Command, dt: f64) -> Pose {
     let mut x = p;
     for _ in 0..10 {
-        x = x.step(u, dt / 10.0);
+        x = u.drive(&x, dt / 10.0);
     }
     x
 }
@@ -29,7 +29,7 @@ fn robot(id: RobotId, pose: Pose, costs: Vec<CostTerm>) -> RobotInput {
 /// value (≤ 0 when all hold): point-in-polygon (THESIS 5.9) and cutting planes (5.17–5.18).
 fn coupling_violation(g: &GeometryF64, anchor: &Pose, opening: &Pose) -> f64 {
     let mut worst = f64::NEG_INFINITY;
-    let head = opening.inverse_transform_point(anchor.transform_point(g.anchor_head));
+    let head = opening.inverse_transform(anchor.transform(g.anchor_head));
     let poly = &g.anchor_polygon;
     for e in 0..poly.len() {
         let (a, b) = (poly[e], poly[(e + 1) % poly.len()]);
@@ -40,10 +40,10 @@ fn coupling_violation(g: &GeometryF64, anchor: &Pose, opening: &Pose) -> f64 {
     let (hl, hw) = (0.5 * g.length, 0.5 * g.width);
     for sy in [-1.0, 1.0] {
         // Opening robot's front corners behind the anchor robot's back face (5.17).
-        let c = anchor.inverse_transform_point(opening.transform_point([hl, sy * hw]));
+        let c = anchor.inverse_transform(opening.transform([hl, sy * hw]));
         worst = worst.max(c[0] + hl);
         // Anchor robot's back corners ahead of the opening robot's front face (5.18).
-        let c = opening.inverse_transform_point(anchor.transform_point([-hl, sy * hw]));
+        let c = opening.inverse_transform(anchor.transform([-hl, sy * hw]));
         worst = worst.max(hl - c[0]);
     }
     worst
@@ -100,10 +100,10 @@ fn alignment_from_25_start_poses() {
                     r.command
                 );
                 me = simulate(me, r.command, 0.1);
-                let head = me.transform_point(g.anchor_head);
-                let opening = partner.transform_point(g.anchor_opening);
+                let head = me.transform(g.anchor_head);
+                let opening = partner.transform(g.anchor_opening);
                 let d = (head[0] - opening[0]).hypot(head[1] - opening[1]);
-                let dth = (me.theta - partner.theta).sin().abs().asin();
+                let dth = (me.yaw - partner.yaw).sin().abs().asin();
                 if d <= tol && dth < yaw {
                     worst_yaw = worst_yaw.max(dth);
                     done = Some(t + 1);
@@ -224,10 +224,10 @@ fn coupled_run(neighbours: NeighbourModel, must_track: bool, r: f64, v: f64) -> 
     }
     // The pair really turned and moved.
     assert!(
-        (front.theta - end.theta).abs() < 0.15,
+        (front.yaw - end.yaw).abs() < 0.15,
         "front heading {} vs {}",
-        front.theta,
-        end.theta
+        front.yaw,
+        end.yaw
     );
     assert!(
         (front.x - end.x).hypot(front.y - end.y) < 0.03,
@@ -353,7 +353,7 @@ fn soft_pair_bend_after_holding(heading: f64) -> f64 {
     let g = cfg.geometry.clone();
     let mut mpc = DistributedMpc::new(cfg).unwrap();
     let mut anchor = Pose::new(0.0, 0.0, 0.0);
-    let head = anchor.transform_point(g.anchor_head);
+    let head = anchor.transform(g.anchor_head);
     let c = g.polygon_centre();
     let (s, co) = 0.3f64.sin_cos();
     let mut opening = Pose::new(
@@ -378,7 +378,7 @@ fn soft_pair_bend_after_holding(heading: f64) -> f64 {
         anchor = simulate(anchor, out.robots[0].command, 0.1);
         opening = simulate(opening, out.robots[1].command, 0.1);
     }
-    opening.theta - anchor.theta
+    opening.yaw - anchor.yaw
 }
 
 #[test]

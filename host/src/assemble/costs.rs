@@ -1,8 +1,8 @@
 //! Cost terms of each robot's MPC problem, one set per coordinator task (THESIS 4.5–4.8,
 //! 5.25, 5.26), and the heading weights they use.
 
-use puzzlebot_assembly::{PairStatus, PairType, Pose2, Role};
-use puzzlebot_mpc::{Command, ConnectionPoint, CostTerm, Pose, StageWeights};
+use puzzlebot_assembly::{PairStatus, PairType, Role};
+use puzzlebot_mpc::{Command, ConnectionPoint, CostTerm, StageWeights};
 
 /// Heading weight of the anchors' maintenance cost (THESIS 4.8; relative to its position
 /// weight W_c = 1000, see `MpcConfig::maintain_heading`) while a shape forms: keeps coupled
@@ -42,11 +42,10 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
         stage: 1.0e2,
         terminal: 1.0e3,
     };
-    let p = |q: &Pose2| Pose::new(q.x, q.y, q.yaw);
     match role {
         Role::Hold | Role::Wait => Vec::new(),
         Role::Keep { pose } => vec![CostTerm::FollowTrajectory {
-            reference: vec![p(pose)],
+            reference: vec![*pose],
             weights: lead,
             heading: KEEP_HEADING,
         }],
@@ -81,7 +80,7 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
         }],
         Role::Follow { leader, offset } => vec![CostTerm::FollowLeader {
             leader: *leader,
-            offset: p(offset),
+            offset: *offset,
             weights: follow,
             heading: 1.0e-3,
         }],
@@ -95,7 +94,7 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
         Role::GoTo { goal, use_yaw } => {
             if *use_yaw {
                 vec![CostTerm::FollowTrajectory {
-                    reference: vec![p(goal)],
+                    reference: vec![*goal],
                     weights: lead,
                     heading: 1.0e-2,
                 }]
@@ -108,7 +107,7 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
             }
         }
         Role::Track { reference } => vec![CostTerm::FollowTrajectory {
-            reference: reference.iter().map(p).collect(),
+            reference: reference.clone(),
             weights: lead,
             heading: 1.0e-3,
         }],
@@ -120,6 +119,7 @@ pub fn costs(role: &Role, in_mesh: bool) -> Vec<CostTerm> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use puzzlebot_assembly::Pose;
 
     #[test]
     fn a_robot_hanging_at_an_anchor_keeps_in_line_in_a_mesh_and_bends_in_a_train() {
@@ -145,7 +145,7 @@ mod tests {
 
     #[test]
     fn a_kept_robot_is_driven_back_to_its_pose_and_a_held_one_is_not_driven() {
-        let pose = Pose2::new(0.1, -0.2, 0.3);
+        let pose = Pose::new(0.1, -0.2, 0.3);
         match &costs(&Role::Keep { pose }, false)[..] {
             [CostTerm::FollowTrajectory {
                 reference, heading, ..

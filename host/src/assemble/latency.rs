@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use puzzlebot_assembly::{Pose2, RobotState};
+use puzzlebot_assembly::{Pose, RobotState};
 use puzzlebot_params::RobotKind;
 use puzzlebot_protocol::messages::RobotId;
 
@@ -20,7 +20,7 @@ pub const MAX_PREDICTION_S: f64 = 0.15;
 pub const FLEET_WAIT_S: f64 = 1.0;
 
 /// `pose` moved on for `dt` seconds at the constant twist `w` (exact unicycle arc).
-pub fn predict(pose: Pose2, w: Twist, dt: f64) -> Pose2 {
+pub fn predict(pose: Pose, w: Twist, dt: f64) -> Pose {
     if dt <= 0.0 {
         return pose;
     }
@@ -34,7 +34,7 @@ pub fn predict(pose: Pose2, w: Twist, dt: f64) -> Pose2 {
             -r * (th.cos() - pose.yaw.cos()),
         )
     };
-    Pose2::new(
+    Pose::new(
         pose.x + dx,
         pose.y + dy,
         puzzlebot_assembly::geom::wrap_angle(th),
@@ -74,7 +74,7 @@ impl PoseHistory {
             .iter()
             .map(|(&id, &(kind, p, w))| {
                 let dt = ((now - p.t).max(0.0) + ahead).min(horizon);
-                let pose = Pose2::new(p.x, p.y, p.theta);
+                let pose = Pose::new(p.x, p.y, p.theta);
                 RobotState {
                     id,
                     kind,

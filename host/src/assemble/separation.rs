@@ -243,14 +243,14 @@ fn neighbour_bound(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use puzzlebot_assembly::Pose2;
+    use puzzlebot_assembly::Pose;
     use puzzlebot_params::RobotKind;
 
     fn state(id: RobotId, x: f64, y: f64, yaw: f64) -> RobotState {
         RobotState {
             id,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(x, y, yaw),
+            pose: Pose::new(x, y, yaw),
         }
     }
 

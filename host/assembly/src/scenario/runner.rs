@@ -158,7 +158,7 @@ impl ScenarioRunner {
             Behaviour::Velocity { v, w, .. } => c.set_mode(t, Mode::Velocity { v, w }),
             Behaviour::GoTo { goal, .. } => {
                 let heading = c.plan().map_or(0.0, |p| p.heading);
-                let goal = Pose2::new(
+                let goal = Pose::new(
                     goal.x,
                     goal.y,
                     if goal.yaw.is_finite() {
@@ -226,7 +226,7 @@ impl ScenarioRunner {
                     let seen = robots.iter().find(|r| r.id == id).map(|r| r.pose);
                     seen.or_else(|| c.pose(id))
                 };
-                let known: Vec<Pose2> = goals
+                let known: Vec<Pose> = goals
                     .keys()
                     .filter(|id| !c.lost().contains(id))
                     .filter_map(|&id| pose_of(id))
@@ -275,7 +275,7 @@ impl ScenarioRunner {
             Behaviour::GoTo { goal, tolerance } => match c.plan() {
                 Some(plan) => {
                     let ids = &plan.slot_robot;
-                    let pts: Vec<Pose2> = ids.iter().filter_map(|&id| c.pose(id)).collect();
+                    let pts: Vec<Pose> = ids.iter().filter_map(|&id| c.pose(id)).collect();
                     if pts.is_empty() {
                         return false;
                     }
@@ -303,7 +303,7 @@ impl ScenarioRunner {
                     return false;
                 };
                 let ids = robots.clone().unwrap_or_else(|| c.robot_ids());
-                let pts: Vec<Pose2> = ids.iter().filter_map(|&id| c.pose(id)).collect();
+                let pts: Vec<Pose> = ids.iter().filter_map(|&id| c.pose(id)).collect();
                 if pts.len() < 2 {
                     return true;
                 }

@@ -82,7 +82,7 @@ fn good_scenario_parses() {
             assert_eq!(goals[&2], Goal::Ahead(0.3));
             // Ahead: along the robot's heading where the step starts.
             let g = goals[&2].resolve(
-                &Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2),
+                &Pose::new(1.0, 2.0, std::f64::consts::FRAC_PI_2),
                 [0.0, 0.0],
                 false,
             );
@@ -107,12 +107,12 @@ fn away_goals_lead_out_from_the_group_and_a_pilot_keeps_to_its_axis() {
     // Two robots facing each other either side of the centre (goals `ahead` would swap
     // them head-on): each goes 0.1 m further out, whatever its heading.
     let (pi, c) = (std::f64::consts::PI, [0.0, 0.0]);
-    let g1 = goals[&1].resolve(&Pose2::new(-0.03, 0.0, 0.0), c, false);
-    let g2 = goals[&2].resolve(&Pose2::new(0.03, 0.0, pi), c, false);
+    let g1 = goals[&1].resolve(&Pose::new(-0.03, 0.0, 0.0), c, false);
+    let g2 = goals[&2].resolve(&Pose::new(0.03, 0.0, pi), c, false);
     assert!((g1.x + 0.13).abs() < 1e-12 && g1.y.abs() < 1e-12, "{g1:?}");
     assert!((g2.x - 0.13).abs() < 1e-12 && g2.y.abs() < 1e-12, "{g2:?}");
     // A pilot cannot turn: it backs out along its axis when the centre is ahead of it.
-    let g = goals[&1].resolve(&Pose2::new(0.0, -0.05, pi / 2.0), c, true);
+    let g = goals[&1].resolve(&Pose::new(0.0, -0.05, pi / 2.0), c, true);
     assert!(g.x.abs() < 1e-12 && (g.y + 0.15).abs() < 1e-12, "{g:?}");
     // Resolved when the step starts, around the centre of the step's robots.
     let mut r = ScenarioRunner::new(
@@ -122,7 +122,7 @@ fn away_goals_lead_out_from_the_group_and_a_pilot_keeps_to_its_axis() {
     let at = |id, x: f64, y: f64, kind| RobotState {
         id,
         kind,
-        pose: Pose2::new(x, y, 0.0),
+        pose: Pose::new(x, y, 0.0),
     };
     let robots = vec![
         at(1, 1.0, 0.0, RobotKind::Pilot),
@@ -237,12 +237,12 @@ fn runner_forms_holds_and_finishes() {
         RobotState {
             id: 1,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(0.05, 0.0, 0.0),
+            pose: Pose::new(0.05, 0.0, 0.0),
         },
         RobotState {
             id: 2,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(0.0, 0.0, 0.0),
+            pose: Pose::new(0.0, 0.0, 0.0),
         },
     ];
     let mut t = 0.0;
@@ -272,7 +272,7 @@ fn a_disperse_goal_for_a_robot_not_in_the_fleet_fails_its_step_by_name() {
     let robots = vec![RobotState {
         id: 1,
         kind: RobotKind::NonPilot,
-        pose: Pose2::new(0.0, 0.0, 0.0),
+        pose: Pose::new(0.0, 0.0, 0.0),
     }];
     r.tick(0.0, &robots);
     match r.state() {
@@ -307,7 +307,7 @@ fn two_at(x1: f64, x2: f64) -> Vec<RobotState> {
         .map(|(id, x)| RobotState {
             id,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(x, 0.0, 0.0),
+            pose: Pose::new(x, 0.0, 0.0),
         })
         .to_vec()
 }
@@ -428,12 +428,12 @@ fn runner_fails_a_step_on_timeout() {
         RobotState {
             id: 1,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(0.5, 0.0, 0.0),
+            pose: Pose::new(0.5, 0.0, 0.0),
         },
         RobotState {
             id: 2,
             kind: RobotKind::NonPilot,
-            pose: Pose2::new(0.0, 0.0, 0.0),
+            pose: Pose::new(0.0, 0.0, 0.0),
         },
     ];
     for k in 0..10 {
