@@ -10,7 +10,7 @@ use puzzlebot_assembly::{
     RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner, Tick,
 };
 use puzzlebot_mpc::{
-    CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, Pose, RobotInput, SolveStatus,
+    CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, RobotInput, SolveStatus,
 };
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::messages::RobotId;
@@ -322,7 +322,7 @@ impl Controller for AssemblyController {
             }
             inputs.push(RobotInput {
                 id: task.robot,
-                pose: Pose::new(s.pose.x, s.pose.y, s.pose.yaw),
+                pose: s.pose,
                 limits: self.limits(s.kind),
                 costs: costs(&task.role, meshes.contains(&task.segment)),
             });
