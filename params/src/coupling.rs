@@ -44,6 +44,12 @@ pub struct Coupling {
     pub knob_hold_force: f32,
     /// Push force of one robot at top speed (N). THESIS 4.4.1, 5.5.2: 0.5–0.72.
     pub robot_push_force: f32,
+    /// Stiffness of a coupled connector's held translations (N/m). Not in THESIS (printed
+    /// TPU): 3.2 N moves it 0.3 mm. The 3-D physics' springs and the gate's elastic load
+    /// distribution both use it.
+    pub connector_stiffness: f32,
+    /// Stiffness of a coupled connector's held rotations (N·m/rad): 0.09 N·m turns it 9 mrad.
+    pub connector_angular_stiffness: f32,
 }
 
 impl Default for Coupling {
@@ -62,6 +68,8 @@ impl Default for Coupling {
             knob_seat_gap: 0.0015,
             knob_hold_force: 3.2,
             robot_push_force: 0.5,
+            connector_stiffness: 1.0e4,
+            connector_angular_stiffness: 10.0,
         }
     }
 }

@@ -47,12 +47,6 @@ pub struct Config3d {
     /// A connector opens when its wrench stays over its limits this long (s): the printed TPU
     /// parts ride out the milliseconds of an impact. Not in THESIS; 10 ms.
     pub break_after: f64,
-    /// Stiffness of a connector's held translations (N/m): 3.2 N moves it 0.3 mm. Not in
-    /// THESIS (printed TPU); soft enough that the deflection, not the solver's residual,
-    /// carries the load, so the force reads true from it.
-    pub connector_stiffness: f64,
-    /// Stiffness of a connector's held rotations (N·m/rad): 0.09 N·m turns it 9 mrad.
-    pub connector_angular_stiffness: f64,
     /// Gravity comes on linearly over this time from the start (s): the assembly is set down
     /// gently instead of dropped, so the connector springs start without ringing.
     pub settle_time: f64,
@@ -76,8 +70,6 @@ impl Default for Config3d {
             fall_depth: 0.01,
             slope: 0.0,
             break_after: 0.01,
-            connector_stiffness: 1.0e4,
-            connector_angular_stiffness: 10.0,
             settle_time: 0.3,
         }
     }
@@ -88,11 +80,6 @@ impl Config3d {
     pub fn validate(&self) -> Result<(), String> {
         let pos = [
             ("dt", self.dt),
-            ("connector_stiffness", self.connector_stiffness),
-            (
-                "connector_angular_stiffness",
-                self.connector_angular_stiffness,
-            ),
             ("wheel_mass", self.wheel_mass),
             ("caster_radius", self.caster_radius),
             ("catch_depth", self.catch_depth),

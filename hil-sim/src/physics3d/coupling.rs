@@ -74,8 +74,12 @@ pub struct Joint3d {
     pub over_for: f64,
 }
 
-fn springs(cfg: &Config3d) -> [f64; 6] {
-    let (kl, ka) = (cfg.connector_stiffness, cfg.connector_angular_stiffness);
+/// Spring stiffness per axis (`coupling.connector_stiffness`, `connector_angular_stiffness`).
+fn springs(c: &Coupling) -> [f64; 6] {
+    let (kl, ka) = (
+        f64::from(c.connector_stiffness),
+        f64::from(c.connector_angular_stiffness),
+    );
     [kl, kl, kl, ka, ka, ka]
 }
 
@@ -86,7 +90,7 @@ pub fn anchor(p: &RobotParams, cfg: &Config3d) -> JointGeom {
     let h = cfg.coupling_height(p);
     let seat_x = f64::from(g.anchor_opening[0]) - Coupling::anchor_depth(g);
     let yaw = f64::from(c.anchor_yaw_range);
-    let stiffness = springs(cfg);
+    let stiffness = springs(&p.coupling);
     JointGeom {
         frame1: Isometry::translation(seat_x, f64::from(g.anchor_opening[1]), h),
         frame2: Isometry::translation(f64::from(g.anchor_head[0]), f64::from(g.anchor_head[1]), h),
@@ -115,7 +119,7 @@ pub fn knob(p: &RobotParams, cfg: &Config3d, a: Pose, b: Pose) -> JointGeom {
     let on_b = b.inverse_apply(w);
     let rel = crate::math::wrap(a.yaw - b.yaw);
     let tilt = cfg.knob_tilt_limit(p);
-    let stiffness = springs(cfg);
+    let stiffness = springs(&p.coupling);
     let mut range = [[0.0; 2]; 6];
     range[3] = [-tilt, tilt];
     JointGeom {
@@ -218,7 +222,7 @@ mod tests {
         let (f, m) = g.wrench(&[0.003, 0.0, 0.0, 0.0, 0.0, 0.3]);
         assert_eq!((f, m), ([0.0; 3], [0.0; 3]));
         // 1 mm past the travel: a pull of k · 1 mm; 1 mm sideways: a side force.
-        let k = cfg.connector_stiffness;
+        let k = f64::from(p.coupling.connector_stiffness);
         let (f, _) = g.wrench(&[0.006, 0.001, 0.0, 0.0, 0.0, 0.0]);
         assert!((f[0] + k * 0.001).abs() < 1e-3 * k * 0.001, "{f:?}");
         assert!((f[1] + k * 0.001).abs() < 1e-9, "{f:?}");

@@ -141,6 +141,17 @@ impl World3d {
             .validate_solid()
             .map_err(|e| inv(format!("terrain: {e}")))?;
         cfg.validate().map_err(inv)?;
+        for p in [&scenario.params.pilot, &scenario.params.non_pilot] {
+            let c = &p.coupling;
+            for (n, v) in [
+                ("connector_stiffness", c.connector_stiffness),
+                ("connector_angular_stiffness", c.connector_angular_stiffness),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(inv(format!("params coupling.{n}: must be > 0, got {v}")));
+                }
+            }
+        }
         let mut params = IntegrationParameters {
             length_unit: LENGTH_UNIT,
             num_solver_iterations: cfg.solver_iterations,
