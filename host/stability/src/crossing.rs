@@ -43,6 +43,8 @@ impl CrossingOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: true,
+            knob_tilt_free: true,
+            elastic: true,
             max_drop: self.max_drop,
             horizon: required + 0.01,
         }

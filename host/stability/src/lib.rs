@@ -20,6 +20,7 @@ pub mod bench_problems;
 pub mod blockchol;
 pub mod crossing;
 pub mod dual;
+pub mod elastic;
 pub mod gate;
 pub mod io;
 pub mod ipm;

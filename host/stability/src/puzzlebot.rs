@@ -78,6 +78,16 @@ pub struct AdvanceOptions {
     /// as in the 3-D physics. The crossing planner sets it; off, the anchor is modelled as
     /// holding pitch up to its box limit.
     pub anchor_pitch_free: bool,
+    /// A knob carries no couple about the shared face: it tilts freely until its hooks
+    /// catch (THESIS 2.4.1; the 1 mm play over the knob and its 1.5 mm hook leave about
+    /// ±12°), far beyond the small deflections of a standing assembly, as in the 3-D physics.
+    /// The crossing planner sets it; off, the knob holds that tilt up to its box limit.
+    pub knob_tilt_free: bool,
+    /// Connectors snap open when overloaded: besides the gate's proof that some distribution
+    /// of the loads keeps every connector within its limits, the distribution the assembly's
+    /// compliance sets ([`crate::elastic`], `coupling.connector_stiffness`) must. The
+    /// crossing planner sets it.
+    pub elastic: bool,
     /// A contact over a platform at most this much lower than the one the assembly stands on
     /// rests on it (m): the assembly's compliance lets a robot settle onto a platform a few
     /// millimetres down (THESIS 3.5.2's 5 mm, 3.5.3's 6 mm). 0: only the assembly's level.
@@ -91,6 +101,8 @@ impl Default for AdvanceOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: false,
+            knob_tilt_free: false,
+            elastic: false,
             max_drop: 0.0,
             horizon: 1.0,
         }
@@ -313,7 +325,7 @@ pub fn build_model_with(
     let g = &params.non_pilot.geometry;
     let lever = 0.5 * g.height as f64;
     let weights = [1.0, 1.0, 1.0, 1.0 / lever, 1.0 / lever, 1.0 / lever];
-    let (mut anchor, knob) = if rigid {
+    let (mut anchor, mut knob) = if rigid {
         (Limits6::default(), Limits6::default())
     } else {
         let ah = c.anchor_hold_force as f64;
@@ -325,6 +337,11 @@ pub fn build_model_with(
     if anchor_pitch_free {
         // Pitch about the horizontal axis across the chain (local y; x up, z into the child).
         anchor.my = Some(0.0);
+    }
+    if opt.knob_tilt_free {
+        // Tilt about the shared face: about the body's forward axis (local y; x up, z across
+        // into the robot with the hole).
+        knob.my = Some(0.0);
     }
     for (name, max) in [("anchor", anchor), ("knob", knob)] {
         connectors.insert(
@@ -362,7 +379,13 @@ pub fn build_model_with(
             },
             [0.0, 0.0],
         );
-        let mut axis = [cb[0] - w[0], cb[1] - w[1], 0.0];
+        // A knob's frame is its own: z across the shared face into the robot with the hole
+        // (`a`'s left), as the connector's limits and the 3-D physics measure it; an anchor's
+        // z runs along the chain into the robot behind.
+        let mut axis = match p.kind {
+            PairKind::Knob => [-ra.yaw.sin(), ra.yaw.cos(), 0.0],
+            PairKind::Anchor => [cb[0] - w[0], cb[1] - w[1], 0.0],
+        };
         if axis[0].hypot(axis[1]) < 1e-9 {
             axis = [ra.yaw.cos(), ra.yaw.sin(), 0.0];
         }
@@ -384,6 +407,45 @@ pub fn build_model_with(
         module_contacts: vec![],
         loads: vec![],
         objective: Objective::default(),
+    })
+}
+
+/// The gate's judgement of a built model (`None`: proven stable), with the elastic check of
+/// [`AdvanceOptions::elastic`].
+pub fn judge_model(
+    m: &Assembly,
+    params: &FleetParams,
+    opt: &AdvanceOptions,
+) -> Result<Option<LimitedBy>, AdapterError> {
+    let rep = evaluate(m)?;
+    Ok(match rep.verdict {
+        Verdict::Stable if opt.elastic && !opt.rigid_couplings => {
+            let r = m.resolve()?;
+            let c = &params.non_pilot.coupling;
+            let compliance = crate::elastic::Compliance {
+                force: 1.0 / f64::from(c.connector_stiffness),
+                couple: 1.0 / f64::from(c.connector_angular_stiffness),
+            };
+            match crate::elastic::distribution(&r, compliance) {
+                Ok(Some(w)) => {
+                    let pairs: Vec<usize> = crate::elastic::use_of_limits(&r, &w)
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, u)| u.is_some_and(|u| u > 1.0))
+                        .map(|(k, _)| k)
+                        .collect();
+                    (!pairs.is_empty()).then_some(LimitedBy::Connection { pairs })
+                }
+                Ok(None) => Some(LimitedBy::Tips),
+                Err(reason) => Some(LimitedBy::NotProven { reason }),
+            }
+        }
+        Verdict::Stable => None,
+        Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
+        Verdict::InternalInstability => Some(LimitedBy::Connection {
+            pairs: rep.broken(),
+        }),
+        Verdict::NotProven { reason } => Some(LimitedBy::NotProven { reason }),
     })
 }
 
@@ -445,15 +507,7 @@ pub fn max_safe_advance_with(
             return Ok(Some(LimitedBy::StepUp { robot }));
         }
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
-        let rep = evaluate(&m)?;
-        Ok(match rep.verdict {
-            Verdict::Stable => None,
-            Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
-            Verdict::InternalInstability => Some(LimitedBy::Connection {
-                pairs: rep.broken(),
-            }),
-            Verdict::NotProven { reason } => Some(LimitedBy::NotProven { reason }),
-        })
+        judge_model(&m, params, &opt)
     };
     let mut cur = state(0.0);
     if let Some(why) = judge(0.0, &cur)? {

@@ -76,6 +76,8 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        knob_tilt_free: false,
+        elastic: false,
         max_drop: 0.0,
         horizon: 1.0,
     };
@@ -123,6 +125,8 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        knob_tilt_free: false,
+        elastic: false,
         max_drop: 0.0,
         horizon: 1.0,
     };
@@ -186,6 +190,8 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
         AdvanceOptions {
             rigid_couplings: true,
             anchor_pitch_free: false,
+            knob_tilt_free: false,
+            elastic: false,
             max_drop: 0.0,
             horizon: 1.0,
         },

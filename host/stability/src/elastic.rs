@@ -1,0 +1,189 @@
+//! The elastic load distribution of a statically indeterminate assembly.
+//!
+//! The gate's program (41) asks whether *some* distribution of the connection wrenches keeps
+//! every connector within its limits, and picks the one with the smallest maximum
+//! characteristic strength: the most favourable. An assembly with loops (a mesh: anchors along
+//! the rows, knobs across) carries its weight the way its compliance dictates instead, and a
+//! connector that snaps open when overloaded (no plastic reserve) breaks when that
+//! distribution, not the most favourable one, exceeds its limits.
+//!
+//! For rigid modules on rigid supports joined by linear springs, the distribution that holds
+//! is the one of least complementary energy among those in equilibrium (Menabrea's theorem):
+//!
+//!   min Σ_connections Σ_components w_i² · c_i / 2   s.t.  equilibrium (SOCP 29), contact and
+//!   support cones (SOCP 24, 30–32), no connector limits,
+//!
+//! with c_i the connector's compliance of component i (m/N for forces, rad/(N·m) for
+//! couples). Released components (limit 0) carry nothing, as in the gate.
+
+use crate::model::{ConnectorSpec, Resolved};
+use crate::socp::{self, connection_values_of, Outcome, SLOTS};
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{DefaultSolver, IPSolver, SolverStatus};
+
+/// Compliance of the connectors: how far a unit load moves them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Compliance {
+    /// Translation per unit force (m/N).
+    pub force: f64,
+    /// Rotation per unit couple (rad/(N·m)).
+    pub couple: f64,
+}
+
+/// Elastic wrench of every connection: [f_x, f_y, f_con^z, f_s, m_x, m_y, m_z] in its frame
+/// (N, N·m; f_con^z ≤ 0 pulls, f_s ≥ 0 presses). `Ok(None)`: no equilibrium exists (the whole
+/// body tips, slides or falls). Errors: the solver reached no certificate.
+pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
+    if !(c.force.is_finite() && c.force > 0.0 && c.couple.is_finite() && c.couple > 0.0) {
+        return Err("compliance: must be finite and > 0".into());
+    }
+    let mut p = socp::build(r, false);
+    // Complementary energy on the connection components; nothing else costs.
+    let mut diag = vec![0.0; p.n];
+    for lay in &p.conns {
+        for slot in 0..SLOTS {
+            if let Some(v) = lay.var[slot] {
+                let comp = if slot < 4 { c.force } else { c.couple };
+                diag[v] = lay.scale[slot] * lay.scale[slot] * comp;
+            }
+        }
+    }
+    // Scale the energy to the order of the forces (N²·m/N → N): the solver's tolerances are
+    // absolute.
+    let top = diag.iter().copied().fold(0.0, f64::max);
+    if top > 0.0 {
+        diag.iter_mut().for_each(|d| *d /= top);
+    }
+    p.q.iter_mut().for_each(|q| *q = 0.0);
+    let colptr: Vec<usize> = (0..=p.n).collect();
+    let pm = CscMatrix::new(p.n, p.n, colptr, (0..p.n).collect(), diag);
+    let mut solver = DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, socp::settings())
+        .map_err(|e| format!("solver setup: {e}"))?;
+    solver.solve();
+    let x = match solver.solution.status {
+        SolverStatus::Solved | SolverStatus::AlmostSolved => {
+            Outcome::Optimal(std::mem::take(&mut solver.solution.x))
+        }
+        SolverStatus::PrimalInfeasible => Outcome::Infeasible,
+        s => Outcome::Failed(format!("solver status {s:?}")),
+    };
+    match x {
+        Outcome::Optimal(x) => Ok(Some(
+            (0..p.conns.len())
+                .map(|k| connection_values_of(&p, k, &x))
+                .collect(),
+        )),
+        Outcome::Infeasible => Ok(None),
+        Outcome::Failed(e) => Err(e),
+    }
+}
+
+/// Share of its limit each connection's elastic wrench uses (the largest over its limited
+/// components, as the gate's box (35): shear and couples both ways, pull only), or `None`
+/// for a connection without box limits.
+pub fn use_of_limits(r: &Resolved, w: &[[f64; SLOTS]]) -> Vec<Option<f64>> {
+    r.connections
+        .iter()
+        .zip(w)
+        .map(|(c, v)| match &r.connectors[c.connector] {
+            ConnectorSpec::Box { max, .. } => {
+                let lim = max.as_array();
+                let comps = [
+                    v[0].abs(),
+                    v[1].abs(),
+                    (-v[2]).max(0.0),
+                    v[4].abs(),
+                    v[5].abs(),
+                    v[6].abs(),
+                ];
+                comps
+                    .iter()
+                    .zip(lim)
+                    .filter_map(|(x, l)| l.filter(|l| *l > 0.0).map(|l| x / l))
+                    .reduce(f64::max)
+            }
+            ConnectorSpec::Lorentz { .. } => None,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Assembly, Connection, Contact, Limits6, Module};
+    use std::collections::BTreeMap;
+
+    /// A beam over two supports with a load in the middle: three modules in a row, the outer
+    /// two on the ground, the middle one hanging on its two neighbours through two equal
+    /// connectors. Its weight splits evenly; the gate's most favourable split may not.
+    #[test]
+    fn a_symmetric_load_splits_evenly() {
+        let m = |id: &str, x: f64| Module {
+            id: id.into(),
+            mass: 0.1,
+            position: [x, 0.0, 0.0],
+            rpy: [0.0; 3],
+            com: [0.0, 0.0, 0.02],
+            fixed: false,
+        };
+        let mut connectors = BTreeMap::new();
+        let w = [1.0, 1.0, 1.0, 40.0, 40.0, 40.0];
+        connectors.insert(
+            "c".to_string(),
+            ConnectorSpec::Box {
+                max: Limits6::uniform(10.0, 0.3),
+                omega_k: w,
+                margin_weights: w,
+            },
+        );
+        let conn = |parent: &str, x: f64, dir: f64| Connection {
+            child: "mid".into(),
+            parent: parent.into(),
+            connector: "c".into(),
+            point: [x, 0.0, 0.02],
+            axis: Some([dir, 0.0, 0.0]),
+            x_axis: Some([0.0, 0.0, 1.0]),
+        };
+        let contacts = ["left", "right"]
+            .iter()
+            .zip([-0.05, 0.05])
+            .flat_map(|(id, x)| {
+                [[-0.02, -0.02], [-0.02, 0.02], [0.02, -0.02], [0.02, 0.02]].map(|[dx, dy]| {
+                    Contact {
+                        module: (*id).into(),
+                        point: [x + dx, dy, 0.0],
+                        normal: None,
+                        mu: [0.5, 0.5],
+                        x_axis: None,
+                    }
+                })
+            })
+            .collect();
+        let a = Assembly {
+            gravity: [0.0, 0.0, -9.81],
+            modules: vec![m("left", -0.05), m("mid", 0.0), m("right", 0.05)],
+            connectors,
+            connections: vec![conn("left", -0.025, 1.0), conn("right", 0.025, -1.0)],
+            contacts,
+            module_contacts: vec![],
+            loads: vec![],
+            objective: Default::default(),
+        };
+        let r = a.resolve().unwrap();
+        let c = Compliance {
+            force: 1e-4,
+            couple: 0.1,
+        };
+        let w = distribution(&r, c).unwrap().unwrap();
+        // Each side carries half the weight in shear (local x is up).
+        let half = 0.5 * 0.1 * 9.81;
+        for v in &w {
+            assert!((v[0].abs() - half).abs() < 1e-3 * half, "{w:?}");
+        }
+        let u = use_of_limits(&r, &w);
+        assert!(
+            u.iter().all(|x| x.is_some_and(|x| x > 0.0 && x < 1.0)),
+            "{u:?}"
+        );
+    }
+}
