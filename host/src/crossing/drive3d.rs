@@ -11,16 +11,16 @@ use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
 use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
 use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
-use puzzlebot_stability::gate::{evaluate, Verdict};
 use puzzlebot_stability::puzzlebot::{
-    assembly_level, build_model_with, Pair, PairKind, PuzzleAssembly, RobotPose,
+    assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
 };
 use serde::Serialize;
 
 /// How the host drives a crossing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CrossSettings {
-    /// Driving speed (m/s): slow, so the crossing stays near the gate's static picture.
+    /// Driving speed (m/s): [`quasi_static_speed`], so the crossing stays near the gate's
+    /// static picture.
     pub speed: f64,
     /// Advance between two gate checks of the measured poses (m): the planner's scan step.
     pub gate_every: f64,
@@ -39,10 +39,28 @@ pub struct CrossSettings {
     pub world: Config3d,
 }
 
+/// Driving speed at which a crossing stays quasi-static (m/s), as the gate assumes (SOCP:
+/// quasi-static stability). When a support rolls off an edge, its load moves onto the
+/// connectors while the contact sinks by the connectors' static deflection under a robot's
+/// weight, δ = m·g / k; a caster of radius r sinks that far over an advance √(2·r·δ). Driven
+/// at this speed, that transfer takes one natural period 2π·√(m / k) of the robot on the
+/// connector springs, so the dynamic overshoot of the load stays within 1/π of its change
+/// (a ramp load on an undamped spring) instead of the twice of a sudden one.
+pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
+    let p = &params.non_pilot;
+    let m = f64::from(p.mass.mass);
+    let k = f64::from(p.coupling.connector_stiffness);
+    let r = world.caster_radius.min(f64::from(p.geometry.wheel_radius));
+    let delta = m * puzzlebot_sim::drive::G / k;
+    let transfer = (2.0 * r * delta).sqrt();
+    let period = std::f64::consts::TAU * (m / k).sqrt();
+    transfer / period
+}
+
 impl Default for CrossSettings {
     fn default() -> Self {
         CrossSettings {
-            speed: 0.08,
+            speed: quasi_static_speed(&FleetParams::default(), &Config3d::default()),
             gate_every: 0.005,
             overshoot: 0.025,
             settle_s: 0.5,
@@ -197,12 +215,11 @@ pub fn gate_now(
         return Some("no support under any robot".into());
     };
     let opt = CrossingOptions::default().advance_options(0.0);
-    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt).map(|m| evaluate(&m)) {
-        Ok(Ok(r)) => match r.verdict {
-            Verdict::Stable => None,
-            v => Some(format!("{v:?}")),
-        },
-        Ok(Err(e)) => Some(format!("model: {e}")),
+    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
+        .and_then(|m| judge_model(&m, params, &opt))
+    {
+        Ok(None) => None,
+        Ok(Some(why)) => Some(format!("{why:?}")),
         Err(e) => Some(e.to_string()),
     }
 }
