@@ -308,8 +308,8 @@ enum ExperimentCmd {
     /// 0-50°, each run driven by its firmware, the gate's prediction beside it: the widest gap
     /// and highest step crossed per configuration next to THESIS, plots in the run folder.
     Crossing {
-        /// A sample in minutes (gaps every 10 mm, headings 0°, 20°, 40°, one run each)
-        /// instead of the whole protocol.
+        /// A sample in minutes (gaps every 10 mm, headings 0°, 20°, 40°, meshes over level
+        /// gaps every 5°, one run each) instead of the whole protocol.
         #[arg(long)]
         quick: bool,
         /// Runs per case (default: 5, or 1 with --quick).
@@ -321,6 +321,10 @@ enum ExperimentCmd {
         /// Worker threads (0: one per core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Keep the physics' runs of this earlier `crossing.json` and re-run only the gate's
+        /// side (seconds instead of minutes, for work on the gate).
+        #[arg(long)]
+        regate: Option<std::path::PathBuf>,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,

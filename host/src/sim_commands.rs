@@ -132,6 +132,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                     runs: n,
                     robots,
                     threads,
+                    regate,
                     json,
                 },
         } => {
@@ -154,9 +155,10 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 opt.robots = r;
             }
             opt.threads = threads;
-            let (s, text, dir) =
-                tokio::task::spawn_blocking(move || crossing_report::command(&opt, &runs, !json))
-                    .await??;
+            let (s, text, dir) = tokio::task::spawn_blocking(move || {
+                crossing_report::command(&opt, regate.as_deref(), &runs, !json)
+            })
+            .await??;
             if json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
             } else {

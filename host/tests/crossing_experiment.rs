@@ -12,6 +12,7 @@ fn a_sample_of_the_crossing_protocol() {
         gaps: vec![0.02, 0.04],
         steps: vec![],
         headings: vec![40.0],
+        mesh_headings: vec![],
         runs: 1,
         threads: 2,
         seed: 1,

@@ -12,9 +12,11 @@ use puzzlebot_params::formation::{self, Shape};
 use puzzlebot_params::terrain::{Platform, Terrain};
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_sim::physics3d::{assembly::jitter, World3d};
+use puzzlebot_stability::crossing::Candidate;
 use puzzlebot_stability::crossing::{formed, pilot_sets, plan_formed, CrossingOptions};
+use puzzlebot_stability::puzzlebot::Advance;
 use puzzlebot_stability::puzzlebot::{max_safe_advance_with, AdvanceOptions};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
@@ -38,6 +40,9 @@ pub struct Options {
     pub steps: Vec<f64>,
     /// Headings (degrees) for every configuration.
     pub headings: Vec<f64>,
+    /// Headings (degrees) of the meshes over level gaps, where completion against heading is
+    /// measured (THESIS Figure 5.7 C): finer, to find the optimum near α.
+    pub mesh_headings: Vec<f64>,
     /// Runs per case.
     pub runs: usize,
     /// Worker threads (0: one per core).
@@ -54,14 +59,15 @@ impl Options {
             gaps: (0..20).map(|k| 0.010 + 0.005 * f64::from(k)).collect(),
             steps: (1..=10).map(|k| STEP_INCREMENT * f64::from(k)).collect(),
             headings: (0..6).map(|k| 10.0 * f64::from(k)).collect(),
+            mesh_headings: (0..=10).map(|k| 5.0 * f64::from(k)).collect(),
             runs: 5,
             threads: 0,
             seed: 1,
         }
     }
 
-    /// A sample in minutes: gaps every 10 mm, steps up to 36 mm, headings 0°, 20° and 40°,
-    /// one run each.
+    /// A sample in minutes: gaps every 10 mm, steps up to 36 mm, headings 0°, 20° and 40°
+    /// (meshes over level gaps every 5°), one run each.
     pub fn quick() -> Options {
         Options {
             gaps: (0..10).map(|k| 0.010 + 0.010 * f64::from(k)).collect(),
@@ -74,7 +80,7 @@ impl Options {
 }
 
 /// A formed assembly of the protocol.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Config {
     /// `line 4`, `mesh 2x2`.
     pub shape: String,
@@ -142,7 +148,7 @@ pub fn configs(robots: &[usize], params: &FleetParams) -> Vec<Config> {
 
 /// An obstacle: a gap of `width` with the far platform `drop` lower (a step when the width
 /// is nil).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Obstacle {
     /// Gap width (m).
     pub width: f64,
@@ -169,7 +175,7 @@ impl Obstacle {
 }
 
 /// One run's result.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CrossRun {
     /// Index into the configurations.
     pub config: usize,
@@ -210,47 +216,106 @@ struct Case {
     heading_deg: f64,
 }
 
-/// Every case of `opt` (configurations × obstacles × headings).
-fn cases(opt: &Options, configs: &[Config]) -> Vec<Case> {
-    let mut obstacles: Vec<Obstacle> = Vec::new();
-    for &w in &opt.gaps {
-        obstacles.push(Obstacle {
-            width: w,
-            drop: GAP_DROP,
-        });
-        obstacles.push(Obstacle {
-            width: w,
-            drop: 0.0,
-        });
-    }
-    obstacles.extend(opt.steps.iter().map(|&h| Obstacle::step(h)));
+/// Obstacles of one kind for one configuration and heading, smallest first: the experiment
+/// looks for the largest it crosses by bisection.
+struct Series {
+    config: usize,
+    heading_deg: f64,
+    obstacles: Vec<Obstacle>,
+}
+
+/// Every series of `opt`: per configuration and heading, the gaps with the far platform
+/// lower, the level gaps and the steps.
+fn series(opt: &Options, configs: &[Config]) -> Vec<Series> {
+    let gaps = |drop: f64| -> Vec<Obstacle> {
+        opt.gaps
+            .iter()
+            .map(|&width| Obstacle { width, drop })
+            .collect()
+    };
+    let steps: Vec<Obstacle> = opt.steps.iter().map(|&h| Obstacle::step(h)).collect();
     let mut out = Vec::new();
-    for c in 0..configs.len() {
-        for &o in &obstacles {
-            for &h in &opt.headings {
-                out.push(Case {
+    for (c, cfg) in configs.iter().enumerate() {
+        let mut push = |headings: &[f64], obstacles: &Vec<Obstacle>| {
+            if obstacles.is_empty() {
+                return;
+            }
+            for &h in headings {
+                out.push(Series {
                     config: c,
-                    obstacle: o,
                     heading_deg: h,
+                    obstacles: obstacles.clone(),
                 });
             }
-        }
+        };
+        push(&opt.headings, &gaps(GAP_DROP));
+        let level = if cfg.mesh && !opt.mesh_headings.is_empty() {
+            &opt.mesh_headings
+        } else {
+            &opt.headings
+        };
+        push(level, &gaps(0.0));
+        push(&opt.headings, &steps);
     }
     out
 }
 
-/// Run one case: the gate's prediction once, then `runs` jittered physics runs.
-fn run_case(
-    case: &Case,
+/// Run a series by bisection: the largest obstacle crossed with more than [`CROSSED`]
+/// completion, taking completion to fall as the obstacle grows; ⌈log2(n + 1)⌉ cases of n.
+fn run_series(
+    s: &Series,
     cfg: &Config,
-    runs: usize,
-    seed: u64,
+    opt: &Options,
     params: &FleetParams,
-) -> Result<Vec<CrossRun>, String> {
+) -> (Vec<CrossRun>, Vec<String>) {
+    let (mut runs, mut skipped) = (Vec::new(), Vec::new());
+    // Indices: `lo` crossed (−1: none known), `hi` not crossed (n: none known).
+    let (mut lo, mut hi) = (-1i64, s.obstacles.len() as i64);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        let case = Case {
+            config: s.config,
+            obstacle: s.obstacles[mid as usize],
+            heading_deg: s.heading_deg,
+        };
+        match run_case(&case, cfg, opt.runs.max(1), opt.seed, params) {
+            Ok(v) => {
+                let mean = v.iter().map(|r| r.completion).sum::<f64>() / v.len().max(1) as f64;
+                runs.extend(v);
+                if mean > CROSSED {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            Err(e) => {
+                skipped.push(format!(
+                    "{} {} w {:.0} mm drop {:.0} mm θ {}°: {e}",
+                    cfg.shape,
+                    cfg.pilots,
+                    case.obstacle.width * 1e3,
+                    case.obstacle.drop * 1e3,
+                    case.heading_deg
+                ));
+                hi = mid;
+            }
+        }
+    }
+    (runs, skipped)
+}
+
+/// The gate's prediction for one case: the planner's candidate (measured coupling limits)
+/// and the advance it proves with unbreakable couplings.
+pub fn predict(
+    cfg: &Config,
+    obstacle: Obstacle,
+    heading_deg: f64,
+    params: &FleetParams,
+) -> Result<(Candidate, Advance), String> {
     let shape = cfg.shape_value.ok_or("configuration without a shape")?;
     let links = formation::layout(shape, &params.non_pilot.geometry).1;
-    let terrain = case.obstacle.terrain();
-    let heading = case.heading_deg.to_radians();
+    let terrain = obstacle.terrain();
+    let heading = heading_deg.to_radians();
     let opt = CrossingOptions {
         headings: vec![heading],
         ..CrossingOptions::default()
@@ -265,14 +330,28 @@ fn run_case(
         &terrain,
         heading,
         opt.step,
+        // Unbreakable couplings with the same hinges as the planner's gate (and the physics).
         AdvanceOptions {
             rigid_couplings: true,
-            anchor_pitch_free: false,
-            max_drop: opt.max_drop,
-            horizon: cand.required + 0.01,
+            ..opt.advance_options(cand.required)
         },
     )
     .map_err(|e| e.to_string())?;
+    Ok((cand, rigid))
+}
+
+/// Run one case: the gate's prediction once, then `runs` jittered physics runs.
+fn run_case(
+    case: &Case,
+    cfg: &Config,
+    runs: usize,
+    seed: u64,
+    params: &FleetParams,
+) -> Result<Vec<CrossRun>, String> {
+    let shape = cfg.shape_value.ok_or("configuration without a shape")?;
+    let links = formation::layout(shape, &params.non_pilot.geometry).1;
+    let terrain = case.obstacle.terrain();
+    let (cand, rigid) = predict(cfg, case.obstacle, case.heading_deg, params)?;
     let n = shape.count();
     let formed_asm = Formed {
         shape,
@@ -290,7 +369,6 @@ fn run_case(
         fit_error: 0.0,
     };
     let settings = CrossSettings {
-        speed: 0.1,
         live_gate: false,
         stop_on_failure: false,
         ..CrossSettings::default()
@@ -331,7 +409,7 @@ fn run_case(
 }
 
 /// Every run of the experiment.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CrossingData {
     /// Configurations.
     pub configs: Vec<Config>,
@@ -343,39 +421,29 @@ pub struct CrossingData {
     pub wall_s: f64,
 }
 
-/// Run the experiment on `threads` workers; `on_case` after each case.
-pub fn run(opt: &Options, on_case: &(dyn Fn() + Sync)) -> CrossingData {
+/// Run the experiment on `threads` workers; `on_series` after each series of obstacles.
+pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
     let params = FleetParams::default();
     let configs = configs(&opt.robots, &params);
-    let cases = cases(opt, &configs);
+    let all = series(opt, &configs);
     let t0 = std::time::Instant::now();
     let threads = match opt.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     }
-    .min(cases.len().max(1));
+    .min(all.len().max(1));
     let next = AtomicUsize::new(0);
     let results = Mutex::new((Vec::new(), Vec::new()));
     std::thread::scope(|s| {
         for _ in 0..threads {
             s.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(case) = cases.get(i) else { break };
-                let cfg = &configs[case.config];
-                let r = run_case(case, cfg, opt.runs.max(1), opt.seed, &params);
-                on_case();
+                let Some(se) = all.get(i) else { break };
+                let (r, skipped) = run_series(se, &configs[se.config], opt, &params);
+                on_series();
                 if let Ok(mut acc) = results.lock() {
-                    match r {
-                        Ok(v) => acc.0.extend(v),
-                        Err(e) => acc.1.push(format!(
-                            "{} {} w {:.0} mm drop {:.0} mm θ {}°: {e}",
-                            cfg.shape,
-                            cfg.pilots,
-                            case.obstacle.width * 1e3,
-                            case.obstacle.drop * 1e3,
-                            case.heading_deg
-                        )),
-                    }
+                    acc.0.extend(r);
+                    acc.1.extend(skipped);
                 }
             });
         }
@@ -403,8 +471,97 @@ pub fn run(opt: &Options, on_case: &(dyn Fn() + Sync)) -> CrossingData {
     }
 }
 
-/// Number of cases (progress bar length).
-pub fn case_count(opt: &Options) -> usize {
+/// Number of series (progress bar length of [`run`]).
+pub fn series_count(opt: &Options) -> usize {
     let params = FleetParams::default();
-    cases(opt, &configs(&opt.robots, &params)).len()
+    series(opt, &configs(&opt.robots, &params)).len()
+}
+
+/// Re-run the gate's side of stored runs (a `crossing.json` of an earlier run) with the gate
+/// as it is now, keeping the physics' results: the gate against physics without the
+/// simulation's minutes. `on_case` after each case. The error names what does not match.
+pub fn regate(
+    d: &mut CrossingData,
+    threads: usize,
+    on_case: &(dyn Fn() + Sync),
+) -> Result<(), String> {
+    let params = FleetParams::default();
+    let mut robots: Vec<usize> = d.configs.iter().map(|c| c.robots).collect();
+    robots.dedup();
+    let now = configs(&robots, &params);
+    if now.len() != d.configs.len()
+        || now
+            .iter()
+            .zip(&d.configs)
+            .any(|(a, b)| a.shape != b.shape || a.pilot_places != b.pilot_places)
+    {
+        return Err("configs: the stored configurations are not this version's".into());
+    }
+    d.configs = now;
+    let mut keys: Vec<(usize, Obstacle, f64)> = Vec::new();
+    for r in &d.runs {
+        if r.config >= d.configs.len() {
+            return Err(format!("runs[].config: {} out of range", r.config));
+        }
+        let k = (r.config, r.obstacle, r.heading_deg);
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    let threads = match threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    }
+    .min(keys.len().max(1));
+    let next = AtomicUsize::new(0);
+    let out = Mutex::new(vec![None; keys.len()]);
+    let cfgs = &d.configs;
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&(c, o, h)) = keys.get(i) else { break };
+                let p = predict(&cfgs[c], o, h, &params);
+                on_case();
+                if let Ok(mut v) = out.lock() {
+                    v[i] = Some(p);
+                }
+            });
+        }
+    });
+    let out = out.into_inner().unwrap_or_default();
+    for r in &mut d.runs {
+        let k = keys
+            .iter()
+            .position(|k| *k == (r.config, r.obstacle, r.heading_deg));
+        match k.and_then(|k| out[k].as_ref()) {
+            Some(Ok((cand, rigid))) => {
+                r.gate_advance = cand.advance.distance;
+                r.gate_limited_by = format!("{:?}", cand.advance.limited_by);
+                r.rigid_advance = rigid.distance;
+            }
+            Some(Err(e)) => return Err(e.clone()),
+            None => return Err("a case was not evaluated".into()),
+        }
+    }
+    Ok(())
+}
+
+/// Number of distinct cases of stored runs (progress bar length of [`regate`]).
+pub fn stored_cases(d: &CrossingData) -> usize {
+    let mut keys: Vec<(usize, u64, u64, u64)> = d
+        .runs
+        .iter()
+        .map(|r| {
+            (
+                r.config,
+                r.obstacle.width.to_bits(),
+                r.obstacle.drop.to_bits(),
+                r.heading_deg.to_bits(),
+            )
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys.len()
 }

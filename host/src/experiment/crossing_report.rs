@@ -397,21 +397,45 @@ pub fn plot_gate(path: &Path, d: &CrossingData) -> Res {
     root.present().map_err(e)
 }
 
-/// Run the experiment with a progress bar, write its files into a new run folder
+/// Run the experiment with a progress bar (or, with `regate`, re-run the gate's side of the
+/// stored runs of that `crossing.json`), write its files into a new run folder
 /// (`crossing.json`: every run; `summary.json`; `crossing.txt`: the tables; `max_gap.svg`,
 /// `heading.svg`, `gate_vs_physics.svg`) and return the summary, the tables and the folder.
 pub fn command(
     opt: &super::crossing::Options,
+    regate: Option<&Path>,
     runs_dir: &Path,
     progress: bool,
 ) -> anyhow::Result<(Summary, String, std::path::PathBuf)> {
-    let n = super::crossing::case_count(opt);
-    let pb = crate::app::progress_bar(n as f64, "cases");
-    if !progress {
-        pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    let d = super::crossing::run(opt, &|| pb.inc(1));
-    pb.finish_and_clear();
+    let (d, n) = match regate {
+        None => {
+            let n = super::crossing::series_count(opt);
+            let pb = crate::app::progress_bar(n as f64, "series");
+            if !progress {
+                pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            }
+            let d = super::crossing::run(opt, &|| pb.inc(1));
+            pb.finish_and_clear();
+            (d, format!("{n} series"))
+        }
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            let mut d: CrossingData = serde_json::from_str(&text)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            let n = super::crossing::stored_cases(&d);
+            let pb = crate::app::progress_bar(n as f64, "cases");
+            if !progress {
+                pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            }
+            let t0 = std::time::Instant::now();
+            super::crossing::regate(&mut d, opt.threads, &|| pb.inc(1))
+                .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+            pb.finish_and_clear();
+            d.wall_s = t0.elapsed().as_secs_f64();
+            (d, format!("{n} cases"))
+        }
+    };
     let s = summarise(&d);
     let mut text = render(&s, &d);
     if !d.skipped.is_empty() {
@@ -420,12 +444,7 @@ pub fn command(
             text += &format!("  {k}\n");
         }
     }
-    text += &format!(
-        "\n{} cases, {} runs in {:.0} s\n",
-        n,
-        d.runs.len(),
-        d.wall_s
-    );
+    text += &format!("\n{}, {} runs in {:.0} s\n", n, d.runs.len(), d.wall_s);
     let folder = crate::report::RunFolder::create(runs_dir, "crossing")?;
     folder.write_json("crossing.json", &d)?;
     folder.write_json("summary.json", &s)?;
