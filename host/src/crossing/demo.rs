@@ -235,7 +235,7 @@ pub fn run_with(
     let terrain = terrain()?;
     let formed = Formed::read(poses, kinds, couplings, &params.non_pilot.geometry)
         .map_err(|e| format!("the formed assembly: {e}"))?;
-    let opt = CrossingOptions::default();
+    let opt = drive3d::crossing_options(settings, &params);
     let lone_id = formed
         .ids
         .iter()

@@ -57,6 +57,20 @@ pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
     transfer / period
 }
 
+/// The planner's options for a crossing driven with `settings`: the gate's proof covers the
+/// drive speeding up to and braking from `settings.speed` along the firmware's reference
+/// response (time constant `firmware.reference_tau_ms`), a = v / τ.
+pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> CrossingOptions {
+    let tau = [&params.pilot, &params.non_pilot]
+        .iter()
+        .map(|p| 1e-3 * f64::from(p.firmware.reference_tau_ms))
+        .fold(f64::INFINITY, f64::min);
+    CrossingOptions {
+        drive_accel: if tau > 0.0 { settings.speed / tau } else { 0.0 },
+        ..CrossingOptions::default()
+    }
+}
+
 impl Default for CrossSettings {
     fn default() -> Self {
         CrossSettings {
@@ -165,12 +179,15 @@ pub struct CrossOutcome {
     pub across: usize,
 }
 
-/// The gate's verdict on the assembly as measured now (`None`: stable).
+/// The gate's verdict on the assembly as measured now, travelling along `heading` (rad) with
+/// the planner's options `opt` (`None`: stable).
 pub fn gate_now(
     states: &[RobotState3d],
     held: &[(LinkKind, RobotId, RobotId)],
     params: &FleetParams,
     terrain: &Terrain,
+    opt: &CrossingOptions,
+    heading: f64,
 ) -> Option<String> {
     let robots: Vec<RobotPose> = states
         .iter()
@@ -214,9 +231,9 @@ pub fn gate_now(
     let Some(level) = assembly_level(&a, params, terrain) else {
         return Some("no support under any robot".into());
     };
-    let opt = CrossingOptions::default().advance_options(0.0);
+    let opt = opt.advance_options(0.0);
     match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
-        .and_then(|m| judge_model(&m, params, &opt))
+        .and_then(|m| judge_model(&m, params, &opt, heading))
     {
         Ok(None) => None,
         Ok(Some(why)) => Some(format!("{why:?}")),
@@ -267,6 +284,7 @@ pub fn cross(
     let t_limit = w.time_us() + ((2.0 * goal / s.speed + 2.0) * 1e6) as u64;
     let t0 = w.time_us();
     let rpm = rpm_for(s.speed, params);
+    let opt = crossing_options(s, params);
     let tick_us = 10_000; // 100 Hz host loop on the measured poses
     let mut out = CrossOutcome {
         crossed: false,
@@ -305,7 +323,7 @@ pub fn cross(
         }
         if s.live_gate && d >= next_check {
             out.gate_checks += 1;
-            if let Some(why) = gate_now(&st, &held(w), params, terrain) {
+            if let Some(why) = gate_now(&st, &held(w), params, terrain, &opt, heading) {
                 out.gate_stop = Some((d, why));
                 break;
             }

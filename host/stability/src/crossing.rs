@@ -35,6 +35,10 @@ pub struct CrossingOptions {
     /// A robot over a platform at most this much lower rests on it (m,
     /// [`AdvanceOptions::max_drop`]); THESIS's crossings step down 5–6 mm.
     pub max_drop: f64,
+    /// Acceleration of the drive the proof covers both ways (m/s²,
+    /// [`AdvanceOptions::drive_accel`]): the crossing speed over the firmware's reference
+    /// time constant. 0 (the default): quasi-static; the host sets its drive's.
+    pub drive_accel: f64,
 }
 
 impl CrossingOptions {
@@ -45,6 +49,7 @@ impl CrossingOptions {
             anchor_pitch_free: true,
             knob_tilt_free: true,
             elastic: true,
+            drive_accel: self.drive_accel,
             max_drop: self.max_drop,
             horizon: required + 0.01,
         }
@@ -60,6 +65,7 @@ impl Default for CrossingOptions {
             clearance: 0.005,
             step: 0.005,
             max_drop: 0.006,
+            drive_accel: 0.0,
         }
     }
 }

@@ -88,6 +88,13 @@ pub struct AdvanceOptions {
     /// compliance sets ([`crate::elastic`], `coupling.connector_stiffness`) must. The
     /// crossing planner sets it.
     pub elastic: bool,
+    /// Horizontal acceleration along the direction of travel the proof covers, speeding up
+    /// and braking (m/s²): the host starts and stops a crossing at any checked advance, its
+    /// drive following the firmware's reference response, and the inertial load m·a at every
+    /// centre of mass tilts the apparent gravity (d'Alembert). Without it, a state with the
+    /// centre of mass exactly over a support line (a four-wheeled pilot on three wheels at an
+    /// oblique edge) passes as stable though the slightest push tips it. 0: quasi-static.
+    pub drive_accel: f64,
     /// A contact over a platform at most this much lower than the one the assembly stands on
     /// rests on it (m): the assembly's compliance lets a robot settle onto a platform a few
     /// millimetres down (THESIS 3.5.2's 5 mm, 3.5.3's 6 mm). 0: only the assembly's level.
@@ -103,6 +110,7 @@ impl Default for AdvanceOptions {
             anchor_pitch_free: false,
             knob_tilt_free: false,
             elastic: false,
+            drive_accel: 0.0,
             max_drop: 0.0,
             horizon: 1.0,
         }
@@ -410,9 +418,39 @@ pub fn build_model_with(
     })
 }
 
-/// The gate's judgement of a built model (`None`: proven stable), with the elastic check of
-/// [`AdvanceOptions::elastic`].
+/// The gate's judgement of a built model (`None`: proven stable) travelling along `heading`
+/// (rad), with the elastic check of [`AdvanceOptions::elastic`] and the drive's acceleration
+/// both ways of [`AdvanceOptions::drive_accel`].
 pub fn judge_model(
+    m: &Assembly,
+    params: &FleetParams,
+    opt: &AdvanceOptions,
+    heading: f64,
+) -> Result<Option<LimitedBy>, AdapterError> {
+    if let Some(why) = judge_one(m, params, opt)? {
+        return Ok(Some(why));
+    }
+    let a = opt.drive_accel;
+    if !(a.is_finite() && a >= 0.0) {
+        return Err(AdapterError::BadNumber("drive_accel"));
+    }
+    if a > 0.0 {
+        let (s, c) = heading.sin_cos();
+        for sign in [1.0, -1.0] {
+            // d'Alembert: accelerating at a along the travel loads every module with −m·a.
+            let mut tilted = m.clone();
+            tilted.gravity[0] -= sign * a * c;
+            tilted.gravity[1] -= sign * a * s;
+            if let Some(why) = judge_one(&tilted, params, opt)? {
+                return Ok(Some(why));
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// The gate's judgement of a model under its own gravity.
+fn judge_one(
     m: &Assembly,
     params: &FleetParams,
     opt: &AdvanceOptions,
@@ -507,7 +545,7 @@ pub fn max_safe_advance_with(
             return Ok(Some(LimitedBy::StepUp { robot }));
         }
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
-        judge_model(&m, params, &opt)
+        judge_model(&m, params, &opt, heading)
     };
     let mut cur = state(0.0);
     if let Some(why) = judge(0.0, &cur)? {

@@ -78,6 +78,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
         anchor_pitch_free: false,
         knob_tilt_free: false,
         elastic: false,
+        drive_accel: 0.0,
         max_drop: 0.0,
         horizon: 1.0,
     };
@@ -127,6 +128,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
         anchor_pitch_free: false,
         knob_tilt_free: false,
         elastic: false,
+        drive_accel: 0.0,
         max_drop: 0.0,
         horizon: 1.0,
     };
@@ -192,6 +194,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
             anchor_pitch_free: false,
             knob_tilt_free: false,
             elastic: false,
+            drive_accel: 0.0,
             max_drop: 0.0,
             horizon: 1.0,
         },
