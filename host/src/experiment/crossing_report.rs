@@ -51,12 +51,12 @@ pub struct ConfigSummary {
     pub gap_level: Option<f64>,
     /// Highest descending step, best heading (m).
     pub step: Option<f64>,
-    /// Per heading (degrees): the widest level gap crossed (m) and the mean completion over
-    /// the level gaps from the configuration's widest one up (the gaps where headings differ;
-    /// THESIS Figure 5.7 C takes the widest gap).
-    pub completion_by_heading: Vec<(f64, Option<f64>, f64)>,
-    /// Heading with the widest level gap, the higher completion beyond it breaking ties
-    /// (degrees).
+    /// Per heading (degrees): the widest level gap crossed (m), and the completion at the
+    /// next wider gap run (the bisection's failing bracket; `None` when the heading crossed
+    /// every gap).
+    pub completion_by_heading: Vec<(f64, Option<f64>, Option<f64>)>,
+    /// Heading with the widest level gap, the higher completion at the next wider gap
+    /// breaking ties (degrees).
     pub best_heading: Option<f64>,
 }
 
@@ -112,17 +112,21 @@ pub fn summarise(d: &CrossingData) -> Summary {
         .enumerate()
         .map(|(i, c)| {
             let gap_level = widest(i, false, Some(0), None);
-            let from = gap_level.map_or(0, |w| (w * 1e6).round() as u64);
-            let by_heading: Vec<(f64, Option<f64>, f64)> = headings
+            let by_heading: Vec<(f64, Option<f64>, Option<f64>)> = headings
                 .iter()
+                .filter(|&&h| {
+                    comp.keys()
+                        .any(|k| k.0 == i && k.1 > 0 && k.2 == 0 && k.3 == h)
+                })
                 .map(|&h| {
-                    let v: Vec<f64> = comp
+                    let w = widest(i, false, Some(0), Some(h));
+                    let from = w.map_or(0, |w| (w * 1e6).round() as u64);
+                    let beyond = comp
                         .iter()
-                        .filter(|(k, _)| k.0 == i && k.2 == 0 && k.3 == h && k.1 >= from)
-                        .map(|(_, v)| *v)
-                        .collect();
-                    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
-                    (h as f64, widest(i, false, Some(0), Some(h)), mean)
+                        .filter(|(k, _)| k.0 == i && k.2 == 0 && k.3 == h && k.1 > from)
+                        .min_by_key(|(k, _)| k.1)
+                        .map(|(_, v)| *v);
+                    (h as f64, w, beyond)
                 })
                 .collect();
             let best_heading = by_heading
@@ -130,7 +134,7 @@ pub fn summarise(d: &CrossingData) -> Summary {
                 .max_by(|a, b| {
                     a.1.unwrap_or(0.0)
                         .total_cmp(&b.1.unwrap_or(0.0))
-                        .then(a.2.total_cmp(&b.2))
+                        .then(a.2.unwrap_or(1.0).total_cmp(&b.2.unwrap_or(1.0)))
                         .then(b.0.total_cmp(&a.0))
                 })
                 .map(|b| b.0);
@@ -194,8 +198,8 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
             thesis(k)
         );
     }
-    t += "\nby heading (Figure 5.7 C; level gaps): widest gap crossed / mean completion from the \
-          widest gap of any heading up\n";
+    t += "\nby heading (Figure 5.7 C; level gaps): widest gap crossed / completion at the next \
+          wider gap run\n";
     for c in s
         .configs
         .iter()
@@ -208,7 +212,10 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
             c.best_heading.map_or("-".into(), |h| format!("{h:.0}°")),
             c.completion_by_heading
                 .iter()
-                .map(|(h, w, v)| format!("{h:.0}° {} mm {:.0} %", mm(*w), v * 100.0))
+                .map(|(h, w, v)| {
+                    let v = v.map_or("-".into(), |v| format!("{:.0} %", v * 100.0));
+                    format!("{h:.0}° {} mm {v}", mm(*w))
+                })
                 .collect::<Vec<_>>()
                 .join(", ")
         );
@@ -297,24 +304,25 @@ pub fn plot_max_gap(path: &Path, s: &Summary) -> Res {
     root.present().map_err(e)
 }
 
-/// Completion against heading at each configuration's widest level gap (Figure 5.7 C):
-/// lines and meshes of 4 and 8 robots with two pilots.
+/// The widest level gap crossed with > 80 % completion against heading (Figure 5.7 C, whose
+/// completion at one gap falls where this widest gap does): lines and meshes of 4 and 8
+/// robots with two pilots.
 pub fn plot_heading(path: &Path, s: &Summary) -> Res {
     let root = SVGBackend::new(path, (700, 420)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
     let mut ch = ChartBuilder::on(&root)
         .caption(
-            "completion against heading, level gaps from the widest crossed up",
+            "widest level gap crossed (> 80 % of the robots) against heading",
             ("sans-serif", 16),
         )
         .margin(10)
         .x_label_area_size(35)
         .y_label_area_size(45)
-        .build_cartesian_2d(-2.0..52.0, 0.0..105.0)
+        .build_cartesian_2d(-2.0..52.0, 0.0..110.0)
         .map_err(e)?;
     ch.configure_mesh()
         .x_desc("heading θ (°)")
-        .y_desc("robots across (%)")
+        .y_desc("widest level gap (mm)")
         .draw()
         .map_err(e)?;
     let chosen = s
@@ -326,7 +334,7 @@ pub fn plot_heading(path: &Path, s: &Summary) -> Res {
         let pts: Vec<(f64, f64)> = c
             .completion_by_heading
             .iter()
-            .map(|(h, _, v)| (*h, v * 100.0))
+            .map(|(h, w, _)| (*h, w.unwrap_or(0.0) * 1e3))
             .collect();
         let label = format!(
             "{} (α {:.1}°, gap {} mm)",
