@@ -254,3 +254,48 @@ fn offset_rows_joined_at_side_points_stand_stable() {
     assert_eq!(r.verdict, Verdict::Stable);
     assert!(r.margin.unwrap() > 0.0);
 }
+
+/// A lone pilot heading 40° towards an edge: once its leading wheel is over the edge, its
+/// centre of mass stands exactly over the diagonal of the other three. Quasi-statically that
+/// passes as stable until the next wheel leaves; covering the drive's braking, the gate stops
+/// where the leading wheel leaves.
+#[test]
+fn a_pilot_on_three_wheels_is_not_proven_under_the_drive_s_braking() {
+    let p = FleetParams::default();
+    let heading = 40f64.to_radians();
+    let a = PuzzleAssembly {
+        robots: vec![RobotPose {
+            kind: RobotKind::Pilot,
+            x: 0.0,
+            y: 0.0,
+            yaw: heading,
+        }],
+        pairs: vec![],
+    };
+    let edge = 0.1;
+    // Contacts' x, leading first; the advance at which each reaches the edge.
+    let mut xs: Vec<f64> = contact_points(RobotKind::Pilot, &p)
+        .iter()
+        .map(|(b, _)| b[0] * heading.cos() - b[1] * heading.sin())
+        .collect();
+    xs.sort_by(|a, b| b.total_cmp(a));
+    let leaves = |x: f64| (edge - x) / heading.cos();
+    let (first, second) = (leaves(xs[0]), leaves(xs[1]));
+    assert!(second - first > 0.02, "{xs:?}");
+    let step = 0.002;
+    let advance = |drive_accel: f64| {
+        let opt = AdvanceOptions {
+            drive_accel,
+            ..AdvanceOptions::default()
+        };
+        max_safe_advance_with(&a, &p, &cliff(edge), heading, step, opt).unwrap()
+    };
+    let quasi = advance(0.0);
+    assert!(quasi.distance > first + 0.01, "{quasi:?}: {first} {second}");
+    let braking = advance(1.0);
+    assert!(
+        braking.distance <= first + step && braking.distance > first - 0.005,
+        "{braking:?}: {first}"
+    );
+    assert_eq!(braking.limited_by, LimitedBy::Tips);
+}
