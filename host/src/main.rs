@@ -713,6 +713,18 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Plan {
             command: PlanCmd::Crossing(args),
         } => {
+            // The plan covers the host's own crossing drive unless told otherwise.
+            #[cfg(feature = "sim")]
+            let args = {
+                use puzzlebot_host::crossing::drive3d::{crossing_options, CrossSettings};
+                let mut args = args;
+                if args.drive_accel.is_none() {
+                    let p = puzzlebot_params::FleetParams::default();
+                    args.drive_accel =
+                        Some(crossing_options(&CrossSettings::default(), &p).drive_accel);
+                }
+                args
+            };
             let out = args.run()?;
             println!("{}", out.trim_end());
         }

@@ -524,6 +524,11 @@ pub struct CrossingArgs {
     /// y of the front robot's start (m).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub start_y: f64,
+    /// Acceleration of the drive the proof covers, starting and braking (m/s²; default: the
+    /// host's crossing drive in `puzzlebot plan crossing`, 0 (quasi-static) in
+    /// `puzzlebot-gate crossing`).
+    #[arg(long)]
+    pub drive_accel: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -537,22 +542,31 @@ impl CrossingArgs {
             self.robots,
             self.pilots,
             self.start_y,
+            self.drive_accel.unwrap_or(0.0),
             self.json,
         )
     }
 }
 
-/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON.
+/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
+/// proof covering a drive that starts and brakes at `drive_accel` (m/s²).
 pub fn crossing_command(
     terrain: &std::path::Path,
     robots: usize,
     pilots: usize,
     start_y: f64,
+    drive_accel: f64,
     json: bool,
 ) -> Result<String, PlanError> {
+    if !(drive_accel.is_finite() && drive_accel >= 0.0) {
+        return Err(PlanError::Input(format!(
+            "--drive-accel: must be ≥ 0, got {drive_accel}"
+        )));
+    }
     let t = load_terrain(terrain)?;
     let opt = CrossingOptions {
         start_y,
+        drive_accel,
         ..CrossingOptions::default()
     };
     let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
