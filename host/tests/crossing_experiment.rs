@@ -1,8 +1,9 @@
 //! `puzzlebot experiment crossing` on a small sample: what one robot cannot cross a mesh
-//! can, a pilot crosses wider than a non-pilot, the summary finds those widths, and the gate
-//! never calls safe an advance at which the physics failed.
+//! can, a pilot crosses wider than a non-pilot, the summary finds those widths, the gate
+//! never calls safe an advance at which the physics failed, and re-running the gate's side of
+//! the stored runs gives the same predictions.
 
-use puzzlebot_host::experiment::crossing::{run, Options};
+use puzzlebot_host::experiment::crossing::{regate, run, CrossingData, Options};
 use puzzlebot_host::experiment::crossing_report::{render, summarise};
 
 #[test]
@@ -33,4 +34,15 @@ fn a_sample_of_the_crossing_protocol() {
     // The 2 x 2 mesh crosses the 40 mm gap (THESIS 3.5.2).
     assert_eq!(level("mesh 2x2", "front"), Some(0.04), "{text}");
     assert_eq!(s.gate.overconfident, 0, "{text}");
+    let json = serde_json::to_string(&d).expect("serialise");
+    let mut again: CrossingData = serde_json::from_str(&json).expect("deserialise");
+    regate(&mut again, 2, &|| {}).expect("regate");
+    assert_eq!(again.runs.len(), d.runs.len());
+    for (a, b) in again.runs.iter().zip(&d.runs) {
+        assert_eq!(
+            (a.gate_advance, &a.gate_limited_by, a.rigid_advance),
+            (b.gate_advance, &b.gate_limited_by, b.rigid_advance)
+        );
+        assert_eq!(a.physics_fail, b.physics_fail);
+    }
 }
