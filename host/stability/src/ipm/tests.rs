@@ -1,5 +1,6 @@
 //! Tests of `ipm`.
 
+use super::cone::{soc_det, soc_step, w_bar_mul};
 use super::*;
 use crate::bench_problems::Family;
 
