@@ -5,18 +5,6 @@ use super::routing::{APPROACH_GAP, ROUTE_CLEARANCE};
 use super::*;
 use crate::assign::LANE_TOLERANCE;
 
-/// Anchor approach: going in, at least this much nearer (m) every [`IN_STALL_S`] seconds, or
-/// the robot backs off to the stand-off and comes in again.
-const IN_PROGRESS: f64 = 0.003;
-/// See [`IN_PROGRESS`] (s).
-const IN_STALL_S: f64 = 3.0;
-/// Anchor approach: this far out from the final place (m) the robot must be on the axis
-/// within [`IN_LATERAL`] and [`IN_YAW`], or it backs off to the stand-off and comes in again.
-const IN_CHECK: f64 = 0.01;
-/// Largest lateral offset from the axis at [`IN_CHECK`] (m): the anchor head's funnel.
-const IN_LATERAL: f64 = 0.005;
-/// Largest heading error at [`IN_CHECK`] (rad).
-const IN_YAW: f64 = 0.2;
 /// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
 /// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
 pub(super) const FLUSH_RUN_IN: f64 = 0.08;
@@ -28,18 +16,6 @@ const FLUSH_OFFSET: f64 = 0.004;
 /// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
 /// the 25 mm to the next wrong hole.
 const FLUSH_CONVERGE: f64 = 0.02;
-/// Side docking: lateral distance kept from the partner's side (m) until the last
-/// [`DOCK_CONVERGE`] before the place: above the knob's 1.5 mm seat gap where the knob passes
-/// the wrong hole, and small enough that the robot still reaches its place (held further off,
-/// a docking robot sweeps over its place without its knob finding the hole).
-const DOCK_HOLD: f64 = 0.003;
-/// Side docking: distance before the place where the robot closes [`DOCK_HOLD`] (m): past the
-/// wrong hole 25 mm before the place.
-const DOCK_CONVERGE: f64 = 0.022;
-/// Side docking: a heading error (rad) above which the robot, still short of
-/// [`DOCK_CONVERGE`], turns on the spot before it drives on: driving with a larger error
-/// closes the hold and clicks the knob in one hole early.
-const DOCK_TURN_FIRST: f64 = 0.08;
 /// Speed of the robot hitched behind a lane train's leader relative to the leader's
 /// ([`Coordinator::lane_train_roles`]).
 const LANE_TRAIL: f64 = 0.6;
@@ -231,22 +207,22 @@ impl Coordinator {
         let v = dir * d.speed;
         // The turning sense that moves the robot towards the partner in this direction.
         let toward = (dir * ny).signum();
-        // Until the last `DOCK_CONVERGE` before the place the robot keeps `DOCK_HOLD` off
+        // Until the last `converge` before the place the robot keeps `hold` off
         // the side: converging all the way, it came within the seat gap where its knob
         // passes the wrong hole (25 mm before the place) and clicked in there.
         // Retreating, it steers out to the approach's offset: off the side, where the
         // partner's row may straighten ([`DockConfig::clearance`]) before it comes in again.
         let hold = if retreat {
             d.offset + d.press
-        } else if -dir * here[0] > DOCK_CONVERGE {
-            DOCK_HOLD
+        } else if -dir * here[0] > d.converge {
+            d.hold
         } else {
             0.0
         };
         let target =
             toward * (d.k_lat * (lat + d.press - hold)).clamp(-d.max_heading, d.max_heading);
         let err = wrap_angle(yaw_rel - target);
-        if hold > 0.0 && !retreat && err.abs() > DOCK_TURN_FIRST {
+        if hold > 0.0 && !retreat && err.abs() > d.turn_first {
             // Still turning (the turn onto the approach line carries on past its end):
             // driving now would close the hold at once (flush with the side at the wrong
             // hole). Only on the way in: sweeping over the place, turns on the spot at each
@@ -373,7 +349,7 @@ impl Coordinator {
             Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
             _ => (s, out, self.now),
         };
-        if out < best - IN_PROGRESS {
+        if out < best - d.in_progress {
             (best, since) = (out, self.now);
         }
         // Only towards a lone partner: beside an assembly the robot slides along its side,
@@ -387,10 +363,11 @@ impl Coordinator {
             };
             self.connected_pairs_of(partner).iter().all(|&k| k == i)
         });
-        let askew =
-            lone_partner && out < IN_CHECK && (lat.abs() > IN_LATERAL || yaw_rel.abs() > IN_YAW);
+        let askew = lone_partner
+            && out < d.in_check
+            && (lat.abs() > d.in_lateral || yaw_rel.abs() > d.in_yaw);
         // Stalled: pressing against the partner's edge instead of entering its opening.
-        let stalled = self.now - since > IN_STALL_S;
+        let stalled = self.now - since > d.in_stall_s;
         if dir == s && (askew || stalled) {
             dir = -s;
         } else if dir != s && out >= standoff {
@@ -509,10 +486,10 @@ impl Coordinator {
             Some(Manoeuvre::In { dir, best, since }) => (*dir, *best, *since),
             _ => (s, out, self.now),
         };
-        if out < best - IN_PROGRESS {
+        if out < best - d.in_progress {
             (best, since) = (out, self.now);
         }
-        if dir == s && self.now - since > IN_STALL_S && tp.status != PairStatus::HeadInserted {
+        if dir == s && self.now - since > d.in_stall_s && tp.status != PairStatus::HeadInserted {
             dir = -s;
         } else if dir != s && out >= d.standoff {
             (dir, best, since) = (s, out, self.now);

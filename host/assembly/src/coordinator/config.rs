@@ -11,7 +11,7 @@ pub struct DockConfig {
     pub run_in: f64,
     /// How far outside the final place the approach starts (m); the line follower then
     /// holds a smaller distance off the side until just before the place, past the wrong
-    /// hole 25 mm before it (`approach::DOCK_HOLD`).
+    /// hole 25 mm before it ([`DockConfig::hold`]).
     pub offset: f64,
     /// Approach speed (m/s): above the wheels' start-up dead-band (20 RPM ≈ 0.036 m/s).
     pub speed: f64,
@@ -41,6 +41,33 @@ pub struct DockConfig {
     pub clearance: f64,
     /// Stand-off of an anchor approach to a waiting pilot, on its axis (m).
     pub standoff: f64,
+    /// Side docking: lateral distance kept from the partner's side (m) until the last
+    /// [`DockConfig::converge`] before the place: above the knob's 1.5 mm seat gap where the
+    /// knob passes the wrong hole, and small enough that the robot still reaches its place
+    /// (held further off, a docking robot sweeps over its place without its knob finding the
+    /// hole).
+    pub hold: f64,
+    /// Side docking: distance before the place where the robot closes [`DockConfig::hold`]
+    /// (m): past the wrong hole 25 mm before the place.
+    pub converge: f64,
+    /// Side docking: a heading error (rad) above which the robot, still short of
+    /// [`DockConfig::converge`], turns on the spot before it drives on: driving with a larger
+    /// error closes the hold and clicks the knob in one hole early.
+    pub turn_first: f64,
+    /// Anchor approach: going in, at least this much nearer (m) every
+    /// [`DockConfig::in_stall_s`], or the robot backs off to the stand-off and comes in again.
+    pub in_progress: f64,
+    /// See [`DockConfig::in_progress`] (s).
+    pub in_stall_s: f64,
+    /// Anchor approach: this far out from the final place (m) the robot must be on the axis
+    /// within [`DockConfig::in_lateral`] and [`DockConfig::in_yaw`], or it backs off to the
+    /// stand-off and comes in again.
+    pub in_check: f64,
+    /// Largest lateral offset from the axis at [`DockConfig::in_check`] (m): the anchor
+    /// head's funnel.
+    pub in_lateral: f64,
+    /// Largest heading error at [`DockConfig::in_check`] (rad).
+    pub in_yaw: f64,
     /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
     pub min_turn: f64,
     /// An anchor pair whose head stays inside the opening's guide, moving less than the
@@ -66,6 +93,14 @@ impl Default for DockConfig {
             overshoot: 0.012,
             clearance: 0.003,
             max_passes: 8,
+            hold: 0.003,
+            converge: 0.022,
+            turn_first: 0.08,
+            in_progress: 0.003,
+            in_stall_s: 3.0,
+            in_check: 0.01,
+            in_lateral: 0.005,
+            in_yaw: 0.2,
             standoff: 0.06,
             min_turn: 0.9,
             tug_s: 1.5,
