@@ -180,7 +180,6 @@ impl Coordinator {
                         entry: -dir,
                     }
                 }
-                Manoeuvre::Retreat { dir } => Manoeuvre::Retreat { dir },
                 // Past the place: back over it, or back out the way it came once it has
                 // passed over it `max_passes` times.
                 Manoeuvre::Sweep { dir, passes, entry } if -dir * here[0] < -d.overshoot => {
@@ -194,7 +193,7 @@ impl Coordinator {
                         }
                     }
                 }
-                Manoeuvre::Sweep { .. } => *state,
+                Manoeuvre::Sweep { .. } | Manoeuvre::Retreat { .. } => *state,
                 _ => fresh,
             };
             *state = next;

@@ -34,7 +34,9 @@ pub struct DockConfig {
     /// Side docking: passes over the place without the knob clicking in after which the
     /// robot backs out along the side, clear of it, to the start of its approach and comes in
     /// afresh: a robot sweeping flush against a bent row keeps it from straightening
-    /// ([`DockConfig::clearance`]) and pushes it further round.
+    /// ([`DockConfig::clearance`]) and pushes it further round. A pass over ±`overshoot`
+    /// takes about 2 · overshoot / speed ≈ 0.5 s, so the default gives a knob some 4 s of
+    /// sweeping; it is a policy bound, not fitted to episodes.
     pub max_passes: u32,
     /// A bent assembly straightens only while the docking robot is at least this far from
     /// its side (m); nearer, the moving holes could catch its knobs at the wrong place.
