@@ -6,8 +6,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use puzzlebot_assembly::{
-    Coordinator, CoordinatorConfig, Event, EventKind, Mode, PairStatus, PairTolerances, PairType,
-    RobotState, Role, RunState, Scenario as AsmScenario, ScenarioRunner, Tick,
+    Coordinator, Event, EventKind, Mode, PairStatus, PairType, RobotState, Role, RunState,
+    Scenario as AsmScenario, ScenarioRunner, Tick,
 };
 use puzzlebot_mpc::{
     CostTerm, CoupledPair, DistributedMpc, Limits, MpcConfig, RobotInput, SolveStatus,
@@ -55,8 +55,8 @@ pub struct AssemblyController {
     /// Log milestones (steps, couplings, formation, lost robots) on the console (default on;
     /// off for batch runs such as the coupling experiment).
     pub log_milestones: bool,
-    /// Longest a pose is predicted ahead from its measured velocity (s): its age plus the
-    /// command latency, capped here (the velocity estimate is a short window's mean).
+    /// Longest a pose is predicted ahead (s): its age plus the command latency, capped here
+    /// ([`PoseHistory::states_at`]).
     pub max_prediction_s: f64,
     /// Longest the first plan waits for every online robot's first pose (s).
     pub fleet_wait_s: f64,
@@ -80,16 +80,11 @@ impl AssemblyController {
         params: FleetParams,
         gate: GateConfig,
     ) -> anyhow::Result<Self> {
-        let g = params.non_pilot.geometry;
-        let cfg = CoordinatorConfig {
-            tolerances: PairTolerances::from_params(&g, &params.non_pilot.coupling),
-            dt: 1.0 / f64::from(params.rates.mpc_hz).max(1e-3),
-            ..CoordinatorConfig::default()
-        };
         for w in slow_step_warnings(&scenario, &params) {
             tracing::warn!("{w}");
         }
-        let coordinator = Coordinator::new(g, cfg);
+        let coordinator = Coordinator::from_params(&params);
+        let geometry = params.non_pilot.geometry;
         let cfg = MpcConfig {
             geometry: puzzlebot_mpc::GeometryF64::from(&params.non_pilot.geometry),
             hard_couplings: false,
@@ -118,7 +113,7 @@ impl AssemblyController {
             poses: PoseHistory::default(),
             fleet_wait_s: FLEET_WAIT_S,
             runner_started: false,
-            separation: SeparationConfig::from_geometry(&g),
+            separation: SeparationConfig::from_geometry(&geometry),
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
@@ -241,10 +236,10 @@ impl Controller for AssemblyController {
             }
             self.runner_started = true;
         }
-        let states = self.poses.states_at(view.t, 0.0, horizon);
-        let predicted = self
-            .poses
-            .states_at(view.t, view.latency_s.max(0.0), horizon);
+        let latency = view.latency_s.max(0.0);
+        let (poses, coupled) = (&self.poses, &self.coupled);
+        let states = poses.states_at(view.t, 0.0, horizon, latency, coupled);
+        let predicted = poses.states_at(view.t, latency, horizon, latency, coupled);
         self.seen.extend(states.iter().map(|s| s.id));
         let tick = self.runner.tick(t, &states);
         if tracing::enabled!(target: "puzzlebot::roles", tracing::Level::TRACE) {
@@ -435,6 +430,7 @@ impl Controller for AssemblyController {
         let dt = 1.0 / self.rate_hz();
         let stops = self.gate.apply(t, dt, &states, &maintain, &segs, &mut out);
         self.gate_stops.extend(stops);
+        self.poses.sent(view.t, &out);
         out
     }
 

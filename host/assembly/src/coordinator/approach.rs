@@ -152,7 +152,8 @@ impl Coordinator {
             }
             // There: turn on the spot to the approach heading.
             let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
-            return Some(Role::Dock { pair: i, v: 0.0, w });
+            let (v, w) = self.turn_in_place(&km.pose, goal.xy(), w);
+            return Some(Role::Dock { pair: i, v, w });
         }
         // Converge on the partner's side with the heading proportional to the lateral
         // distance: at k_lat · half a body length < 1 the front corner never reaches the
@@ -320,7 +321,8 @@ impl Coordinator {
             Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
                 // Turn on the spot, never slower than the wheels' dead-band allows.
                 let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
-                return Some(Role::Dock { pair: i, v: 0.0, w });
+                let (v, w) = self.turn_in_place(&km.pose, pre.xy(), w);
+                return Some(Role::Dock { pair: i, v, w });
             }
             Some(Manoeuvre::Turning) => {
                 phase.insert(

@@ -135,6 +135,11 @@ pub struct CoordinatorConfig {
     /// Smallest turning radius of a pilot (m,
     /// [`puzzlebot_params::drive::Drive::min_turn_radius`]).
     pub pilot_turn_radius: f64,
+    /// Smallest turning radius of a non-pilot (m,
+    /// [`puzzlebot_params::drive::Drive::min_turn_radius`]): its butterfly has no turn
+    /// without motion, so a "turn on the spot" runs on a circle this wide
+    /// ([`Coordinator::turn_in_place`]).
+    pub turn_radius: f64,
 }
 
 impl Default for CoordinatorConfig {
@@ -149,6 +154,8 @@ impl Default for CoordinatorConfig {
             heading_gain: 1.0,
             dock: DockConfig::default(),
             pilot_turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::Pilot)
+                .min_turn_radius(),
+            turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::NonPilot)
                 .min_turn_radius(),
         }
     }

@@ -200,6 +200,7 @@ impl Coordinator {
             tolerances: PairTolerances::from_params(&g, &p.non_pilot.coupling),
             dt: 1.0 / f64::from(p.rates.mpc_hz).max(1e-3),
             pilot_turn_radius: p.pilot.drive.min_turn_radius(),
+            turn_radius: p.non_pilot.drive.min_turn_radius(),
             ..CoordinatorConfig::default()
         };
         Coordinator::new(g, cfg)

@@ -26,12 +26,23 @@ impl Coordinator {
             dir = -1.0;
         }
         if e.abs() > 0.3 {
-            return (
-                0.0,
-                (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum(),
-            );
+            let w = (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum();
+            return self.turn_in_place(pose, goal, w);
         }
         (dir * d.speed, d.k_theta * e)
+    }
+
+    /// (v, ω) turning at `w` (rad/s) while staying at point `at`. The butterfly (THESIS
+    /// 3.10) has no turn without motion: asked to turn on the spot, a robot pivots on a
+    /// circle of [`CoordinatorConfig::turn_radius`] and drifts up to twice that off
+    /// (half a turn drifted a docking robot off its stand-off, it drove back, and turned
+    /// again, for ever). So it turns at that radius forwards or backwards, whichever takes
+    /// it back towards `at`: the two pivots drift it opposite ways, and it stays there.
+    pub(super) fn turn_in_place(&self, pose: &Pose2, at: [f64; 2], w: f64) -> (f64, f64) {
+        let (s, c) = pose.yaw.sin_cos();
+        let ahead = (at[0] - pose.x) * c + (at[1] - pose.y) * s;
+        let dir = if ahead >= 0.0 { 1.0 } else { -1.0 };
+        (dir * w.abs() * self.cfg.turn_radius, w)
     }
 
     /// Towards waypoint `p`: the MPC's point goal when it is far (faster), the turn-then-drive
@@ -82,5 +93,50 @@ impl Coordinator {
         route(start, goal, &field, goal_gap, ROUTE_MARGIN)?
             .first()
             .copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::fixtures::coordinator;
+    use crate::geom::Pose2;
+
+    #[test]
+    fn a_robot_turning_half_a_turn_on_the_spot_stays_where_it_turns() {
+        // Half a turn at the smallest radius, always forwards, drifts the robot 2ρ away
+        // (34 mm: off a docking stand-off); turning forwards or backwards towards its
+        // point, it stays within a fraction of ρ of it.
+        let c = coordinator();
+        let rho = c.cfg.turn_radius;
+        let at = [0.3, -0.2];
+        let mut pose = Pose2::new(at[0], at[1], 0.4);
+        let goal = pose.yaw + std::f64::consts::PI;
+        let (dt, mut worst) = (c.cfg.dt, 0.0f64);
+        for _ in 0..200 {
+            let e = crate::geom::wrap_angle(goal - pose.yaw);
+            if e.abs() < 0.1 {
+                break;
+            }
+            let (v, w) = c.turn_in_place(&pose, at, 1.5 * e.signum());
+            assert!(
+                (v.abs() - 1.5 * rho).abs() < 1e-12,
+                "at the smallest radius: {v}"
+            );
+            // The unicycle's exact arc over one tick.
+            let th = pose.yaw + w * dt;
+            let r = v / w;
+            pose = Pose2::new(
+                pose.x + r * (th.sin() - pose.yaw.sin()),
+                pose.y - r * (th.cos() - pose.yaw.cos()),
+                th,
+            );
+            worst = worst.max((pose.x - at[0]).hypot(pose.y - at[1]));
+        }
+        let e = crate::geom::wrap_angle(goal - pose.yaw);
+        assert!(e.abs() < 0.1, "turned: {e}");
+        assert!(
+            worst < 0.5 * rho,
+            "stayed within {worst} m of its point (ρ = {rho})"
+        );
     }
 }
