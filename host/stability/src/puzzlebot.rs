@@ -3,8 +3,9 @@
 //! along this heading before it tips or a connection fails" ([`max_safe_advance`]).
 //!
 //! Modelling choices (not in THESIS; stated here, kept out of `puzzlebot_params`):
-//! - non-pilot robots rest on 2 wheels at (0, ±L/2) and 2 frictionless ball casters at
-//!   (±0.4·length, 0); pilots on 4 wheels at (±0.4·length, ±L/2) (body frame, L = wheel base);
+//! - non-pilot robots rest on 2 wheels at (`plant.wheel_axle_offset`, ±L/2) and 2 frictionless
+//!   ball casters at (±`plant.caster_offset`, 0); pilots on 4 wheels at
+//!   (±`plant.wheel_axle_offset`, ±L/2) (body frame, L = wheel base), as the 3-D physics;
 //!   wheels hold friction in both directions (geared motors are not back-drivable);
 //! - a contact touches when the platform under it is at the assembly's level (±1 mm);
 //! - connections sit at the centre-of-mass height; the frame has x up, z horizontal into the
@@ -78,6 +79,12 @@ pub struct AdvanceOptions {
     /// as in the 3-D physics. The crossing planner sets it; off, the anchor is modelled as
     /// holding pitch up to its box limit.
     pub anchor_pitch_free: bool,
+    /// A soft anchor carries no pull along the chain: its head slides out of the opening over
+    /// its travel (THESIS 4.2.2: 5 mm, `coupling.anchor_travel`) before anything holds it, as
+    /// in the 3-D physics, so a robot hanging past an edge cannot lean on the anchor's tension
+    /// (with its wheels' friction) to stay level. It still pushes. The crossing planner sets
+    /// it; off, the anchor holds a pull up to `anchor_hold_force`.
+    pub anchor_slides: bool,
     /// A knob carries no couple about the shared face: it tilts freely until its hooks
     /// catch (THESIS 2.4.1; the 1 mm play over the knob and its 1.5 mm hook leave about
     /// ±12°), far beyond the small deflections of a standing assembly, as in the 3-D physics.
@@ -108,6 +115,7 @@ impl Default for AdvanceOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: false,
+            anchor_slides: false,
             knob_tilt_free: false,
             elastic: false,
             drive_accel: 0.0,
@@ -168,25 +176,24 @@ pub enum AdapterError {
     Model(#[from] crate::model::ModelError),
 }
 
-/// Contact points of a robot in its body frame, and whether each is a wheel (friction).
+/// Contact points of a robot in its body frame, and whether each is a wheel (friction): the
+/// wheels at (±`plant.wheel_axle_offset`, ±L/2) (one axle on a non-pilot, two on a pilot) and
+/// a non-pilot's casters at (±`plant.caster_offset`, 0), as the 3-D physics builds them.
 pub fn contact_points(kind: RobotKind, params: &FleetParams) -> Vec<([f64; 2], bool)> {
-    let g = &params.robot(kind).geometry;
-    let cx = 0.4 * g.length as f64;
-    let hy = 0.5 * g.wheel_base as f64;
-    match kind {
-        RobotKind::NonPilot => vec![
-            ([0.0, hy], true),
-            ([0.0, -hy], true),
-            ([cx, 0.0], false),
-            ([-cx, 0.0], false),
-        ],
-        RobotKind::Pilot => vec![
-            ([cx, hy], true),
-            ([cx, -hy], true),
-            ([-cx, hy], true),
-            ([-cx, -hy], true),
-        ],
+    let p = params.robot(kind);
+    let hy = 0.5 * f64::from(p.geometry.wheel_base);
+    let d = f64::from(p.plant.wheel_axle_offset);
+    let axles: &[f64] = if p.plant.four_wheels { &[d, -d] } else { &[d] };
+    let mut out: Vec<([f64; 2], bool)> = axles
+        .iter()
+        .flat_map(|&x| [([x, hy], true), ([x, -hy], true)])
+        .collect();
+    if !p.plant.four_wheels {
+        let c = f64::from(p.plant.caster_offset);
+        out.push(([c, 0.0], false));
+        out.push(([-c, 0.0], false));
     }
+    out
 }
 
 fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
@@ -345,6 +352,10 @@ pub fn build_model_with(
     if anchor_pitch_free {
         // Pitch about the horizontal axis across the chain (local y; x up, z into the child).
         anchor.my = Some(0.0);
+    }
+    if opt.anchor_slides {
+        // Pull along the chain (local z): the head slides out over its travel.
+        anchor.fz = Some(0.0);
     }
     if opt.knob_tilt_free {
         // Tilt about the shared face: about the body's forward axis (local y; x up, z across
