@@ -4,7 +4,9 @@
 //! gate's elastic distribution for the assembly as planned, translated by that advance.
 //!
 //! `cargo run --release -p puzzlebot-host --example crossing_probe -- "mesh 2x3" none 70 6 0 90`
-//! (shape, pilots, gap width mm, drop mm, heading degrees, stop after mm).
+//! (shape, pilots, gap width mm, drop mm, heading degrees, stop after mm). `SUPPORT=k` takes
+//! the gate's supports k times softer than the connectors (0: rigid); `SETTLE=1` stops the
+//! drive there and traces the assembly standing.
 
 use puzzlebot_host::crossing::drive3d::{self, CrossSettings};
 use puzzlebot_host::crossing::formed::Formed;
@@ -165,6 +167,11 @@ fn main() {
         let comp = elastic::Compliance {
             force: 1.0 / f64::from(c.connector_stiffness),
             couple: 1.0 / f64::from(c.connector_angular_stiffness),
+            support: std::env::var("SUPPORT")
+                .ok()
+                .and_then(|v| v.parse::<f64>().ok())
+                .unwrap_or(0.0)
+                / f64::from(c.connector_stiffness),
         };
         line += " || gate";
         match elastic::distribution(&r, comp) {
@@ -182,6 +189,13 @@ fn main() {
         }
         seen = w.events().len();
         if d >= goal || d >= until {
+            if std::env::var("SETTLE").is_ok() && w.time_us() < 50_000_000 {
+                w.command_all(Some([0.0, 0.0]));
+                w.run_for(1_000_000);
+                println!("settled 1 s:");
+                w.run_for(1_000_000);
+                continue;
+            }
             break;
         }
     }
