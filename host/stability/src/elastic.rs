@@ -42,6 +42,20 @@ pub struct Compliance {
 /// (N, N·m; f_con^z ≤ 0 pulls, f_s ≥ 0 presses). `Ok(None)`: no equilibrium exists (the whole
 /// body tips, slides or falls). Errors: the solver reached no certificate.
 pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
+    distribution_with_gaps(r, c, &[])
+}
+
+/// [`distribution`] with environmental contacts that stand `gaps[k]` (m, model order; missing
+/// entries 0) clear of their support in the unloaded assembly, as a robot over a lower
+/// platform: such a contact carries load only once the deflection of the connectors and
+/// supports has closed its gap (Signorini), which adds the work gap · f_n to the
+/// complementary energy. A free hinge closes it at no cost; stiff connectors hold the robot
+/// up instead, and break if they cannot.
+pub fn distribution_with_gaps(
+    r: &Resolved,
+    c: Compliance,
+    gaps: &[f64],
+) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
     if !(c.force.is_finite()
         && c.force > 0.0
         && c.couple.is_finite()
@@ -74,6 +88,11 @@ pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOT
         diag.iter_mut().for_each(|d| *d /= top);
     }
     p.q.iter_mut().for_each(|q| *q = 0.0);
+    for (lay, g) in p.contacts.iter().zip(gaps) {
+        if let Some(v) = lay.var[0].filter(|_| *g > 0.0) {
+            p.q[v] = if top > 0.0 { g / top } else { *g };
+        }
+    }
     let colptr: Vec<usize> = (0..=p.n).collect();
     let pm = CscMatrix::new(p.n, p.n, colptr, (0..p.n).collect(), diag);
     let mut solver = DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, socp::settings())
@@ -243,6 +262,23 @@ mod tests {
                 (v[0].abs() - excess).abs() < 1e-2 * excess,
                 "{w:?} vs {excess}"
             );
+        }
+    }
+
+    /// The middle module over a platform 6 mm lower: its contacts stand clear of it, the
+    /// stiff connectors bend far less than that holding it, so it hangs on its neighbours as
+    /// if those contacts were not there.
+    #[test]
+    fn a_module_over_a_lower_platform_hangs_on_stiff_connectors() {
+        let r = row(0.1, true).resolve().unwrap();
+        let mut gaps = vec![0.0; 12];
+        gaps[4..8].iter_mut().for_each(|g| *g = 0.006);
+        let w = distribution_with_gaps(&r, RIGID_SUPPORTS, &gaps)
+            .unwrap()
+            .unwrap();
+        let half = 0.5 * 0.1 * 9.81;
+        for v in &w {
+            assert!((v[0].abs() - half).abs() < 1e-2 * half, "{w:?}");
         }
     }
 }

@@ -493,6 +493,17 @@ fn elastic_limit(m: &Assembly, params: &FleetParams) -> Result<Option<LimitedBy>
     let r = m.resolve()?;
     let c = &params.non_pilot.coupling;
     let force = 1.0 / f64::from(c.connector_stiffness);
+    // A contact over a lower platform stands clear of it by the drop.
+    let gaps: Vec<f64> = m
+        .contacts
+        .iter()
+        .map(|k| {
+            m.modules
+                .iter()
+                .find(|md| md.id == k.module)
+                .map_or(0.0, |md| (md.position[2] - k.point[2]).max(0.0))
+        })
+        .collect();
     let mut over = vec![false; r.connections.len()];
     for support in [0.0, SOFT_SUPPORTS * force] {
         let compliance = crate::elastic::Compliance {
@@ -500,7 +511,9 @@ fn elastic_limit(m: &Assembly, params: &FleetParams) -> Result<Option<LimitedBy>
             couple: 1.0 / f64::from(c.connector_angular_stiffness),
             support,
         };
-        match crate::elastic::distribution(&r, compliance) {
+        // On soft supports a loaded robot sinks further than any drop it could rest on.
+        let gaps: &[f64] = if support > 0.0 { &[] } else { &gaps };
+        match crate::elastic::distribution_with_gaps(&r, compliance, gaps) {
             Ok(Some(w)) => {
                 for (o, u) in over.iter_mut().zip(crate::elastic::use_of_limits(&r, &w)) {
                     *o |= u.is_some_and(|u| u > 1.0);
