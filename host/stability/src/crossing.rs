@@ -47,6 +47,7 @@ impl CrossingOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: true,
+            anchor_slides: true,
             knob_tilt_free: true,
             elastic: true,
             drive_accel: self.drive_accel,

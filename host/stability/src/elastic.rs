@@ -15,6 +15,12 @@
 //!
 //! with c_i the connector's compliance of component i (m/N for forces, rad/(N·m) for
 //! couples). Released components (limit 0) carry nothing, as in the gate.
+//!
+//! Supports that give under load (tyres, the platform, a simulator's soft contacts) add
+//! Σ_contacts c_s · f_n² / 2 with their normal compliance c_s: a loaded robot settles into
+//! them and its connectors bend to follow. Far softer than the connectors, the assembly
+//! settles as one body and its weight spreads over the supports by how far each sinks; far
+//! stiffer, the rigid-support distribution above holds.
 
 use crate::model::{ConnectorSpec, Resolved};
 use crate::socp::{self, connection_values_of, Outcome, SLOTS};
@@ -28,14 +34,36 @@ pub struct Compliance {
     pub force: f64,
     /// Rotation per unit couple (rad/(N·m)).
     pub couple: f64,
+    /// Sink of a support under a unit normal force (m/N); 0: rigid supports.
+    pub support: f64,
 }
 
 /// Elastic wrench of every connection: [f_x, f_y, f_con^z, f_s, m_x, m_y, m_z] in its frame
 /// (N, N·m; f_con^z ≤ 0 pulls, f_s ≥ 0 presses). `Ok(None)`: no equilibrium exists (the whole
 /// body tips, slides or falls). Errors: the solver reached no certificate.
 pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
-    if !(c.force.is_finite() && c.force > 0.0 && c.couple.is_finite() && c.couple > 0.0) {
-        return Err("compliance: must be finite and > 0".into());
+    distribution_with_gaps(r, c, &[])
+}
+
+/// [`distribution`] with environmental contacts that stand `gaps[k]` (m, model order; missing
+/// entries 0) clear of their support in the unloaded assembly, as a robot over a lower
+/// platform: such a contact carries load only once the deflection of the connectors and
+/// supports has closed its gap (Signorini), which adds the work gap · f_n to the
+/// complementary energy. A free hinge closes it at no cost; stiff connectors hold the robot
+/// up instead, and break if they cannot.
+pub fn distribution_with_gaps(
+    r: &Resolved,
+    c: Compliance,
+    gaps: &[f64],
+) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
+    if !(c.force.is_finite()
+        && c.force > 0.0
+        && c.couple.is_finite()
+        && c.couple > 0.0
+        && c.support.is_finite()
+        && c.support >= 0.0)
+    {
+        return Err("compliance: must be finite and > 0 (support ≥ 0)".into());
     }
     let mut p = socp::build(r, false);
     // Complementary energy on the connection components; nothing else costs.
@@ -48,6 +76,11 @@ pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOT
             }
         }
     }
+    for lay in p.contacts.iter().chain(&p.module_contacts) {
+        if let Some(v) = lay.var[0] {
+            diag[v] = c.support;
+        }
+    }
     // Scale the energy to the order of the forces (N²·m/N → N): the solver's tolerances are
     // absolute.
     let top = diag.iter().copied().fold(0.0, f64::max);
@@ -55,6 +88,11 @@ pub fn distribution(r: &Resolved, c: Compliance) -> Result<Option<Vec<[f64; SLOT
         diag.iter_mut().for_each(|d| *d /= top);
     }
     p.q.iter_mut().for_each(|q| *q = 0.0);
+    for (lay, g) in p.contacts.iter().zip(gaps) {
+        if let Some(v) = lay.var[0].filter(|_| *g > 0.0) {
+            p.q[v] = if top > 0.0 { g / top } else { *g };
+        }
+    }
     let colptr: Vec<usize> = (0..=p.n).collect();
     let pm = CscMatrix::new(p.n, p.n, colptr, (0..p.n).collect(), diag);
     let mut solver = DefaultSolver::new(&pm, &p.q, &p.a, &p.b, &p.cones, socp::settings())
@@ -113,14 +151,13 @@ mod tests {
     use crate::model::{Assembly, Connection, Contact, Limits6, Module};
     use std::collections::BTreeMap;
 
-    /// A beam over two supports with a load in the middle: three modules in a row, the outer
-    /// two on the ground, the middle one hanging on its two neighbours through two equal
-    /// connectors. Its weight splits evenly; the gate's most favourable split may not.
-    #[test]
-    fn a_symmetric_load_splits_evenly() {
-        let m = |id: &str, x: f64| Module {
+    /// Three modules in a row joined by two equal connectors, the middle one of `mid_mass`;
+    /// the outer two stand on four ground contacts each, and so does the middle one when
+    /// `mid_on_ground`.
+    fn row(mid_mass: f64, mid_on_ground: bool) -> Assembly {
+        let m = |id: &str, x: f64, mass: f64| Module {
             id: id.into(),
-            mass: 0.1,
+            mass,
             position: [x, 0.0, 0.0],
             rpy: [0.0; 3],
             com: [0.0, 0.0, 0.02],
@@ -144,13 +181,17 @@ mod tests {
             axis: Some([dir, 0.0, 0.0]),
             x_axis: Some([0.0, 0.0, 1.0]),
         };
-        let contacts = ["left", "right"]
+        let on_ground: Vec<(&str, f64)> = if mid_on_ground {
+            vec![("left", -0.05), ("mid", 0.0), ("right", 0.05)]
+        } else {
+            vec![("left", -0.05), ("right", 0.05)]
+        };
+        let contacts = on_ground
             .iter()
-            .zip([-0.05, 0.05])
-            .flat_map(|(id, x)| {
+            .flat_map(|&(id, x)| {
                 [[-0.02, -0.02], [-0.02, 0.02], [0.02, -0.02], [0.02, 0.02]].map(|[dx, dy]| {
                     Contact {
-                        module: (*id).into(),
+                        module: id.into(),
                         point: [x + dx, dy, 0.0],
                         normal: None,
                         mu: [0.5, 0.5],
@@ -159,22 +200,34 @@ mod tests {
                 })
             })
             .collect();
-        let a = Assembly {
+        Assembly {
             gravity: [0.0, 0.0, -9.81],
-            modules: vec![m("left", -0.05), m("mid", 0.0), m("right", 0.05)],
+            modules: vec![
+                m("left", -0.05, 0.1),
+                m("mid", 0.0, mid_mass),
+                m("right", 0.05, 0.1),
+            ],
             connectors,
             connections: vec![conn("left", -0.025, 1.0), conn("right", 0.025, -1.0)],
             contacts,
             module_contacts: vec![],
             loads: vec![],
             objective: Default::default(),
-        };
-        let r = a.resolve().unwrap();
-        let c = Compliance {
-            force: 1e-4,
-            couple: 0.1,
-        };
-        let w = distribution(&r, c).unwrap().unwrap();
+        }
+    }
+
+    const RIGID_SUPPORTS: Compliance = Compliance {
+        force: 1e-4,
+        couple: 0.1,
+        support: 0.0,
+    };
+
+    /// A beam over two supports with a load in the middle: the middle module hangs on its two
+    /// neighbours. Its weight splits evenly; the gate's most favourable split may not.
+    #[test]
+    fn a_symmetric_load_splits_evenly() {
+        let r = row(0.1, false).resolve().unwrap();
+        let w = distribution(&r, RIGID_SUPPORTS).unwrap().unwrap();
         // Each side carries half the weight in shear (local x is up).
         let half = 0.5 * 0.1 * 9.81;
         for v in &w {
@@ -185,5 +238,47 @@ mod tests {
             u.iter().all(|x| x.is_some_and(|x| x > 0.0 && x < 1.0)),
             "{u:?}"
         );
+    }
+
+    /// A heavy module between two light ones, all on the ground: on rigid supports it stands
+    /// on its own and the connectors carry nothing; on supports far softer than the
+    /// connectors the row settles as one body, every contact carries the same share and the
+    /// connectors pass the heavy module's excess to its neighbours.
+    #[test]
+    fn soft_supports_spread_a_heavy_module_over_its_neighbours() {
+        let r = row(0.3, true).resolve().unwrap();
+        let rigid = distribution(&r, RIGID_SUPPORTS).unwrap().unwrap();
+        assert!(rigid.iter().flatten().all(|v| v.abs() < 1e-3), "{rigid:?}");
+        let soft = Compliance {
+            support: 1e3 * RIGID_SUPPORTS.force,
+            ..RIGID_SUPPORTS
+        };
+        let w = distribution(&r, soft).unwrap().unwrap();
+        let g = 9.81;
+        let share = (0.1 + 0.3 + 0.1) * g / 12.0;
+        let excess = 0.5 * (0.3 * g - 4.0 * share);
+        for v in &w {
+            assert!(
+                (v[0].abs() - excess).abs() < 1e-2 * excess,
+                "{w:?} vs {excess}"
+            );
+        }
+    }
+
+    /// The middle module over a platform 6 mm lower: its contacts stand clear of it, the
+    /// stiff connectors bend far less than that holding it, so it hangs on its neighbours as
+    /// if those contacts were not there.
+    #[test]
+    fn a_module_over_a_lower_platform_hangs_on_stiff_connectors() {
+        let r = row(0.1, true).resolve().unwrap();
+        let mut gaps = vec![0.0; 12];
+        gaps[4..8].iter_mut().for_each(|g| *g = 0.006);
+        let w = distribution_with_gaps(&r, RIGID_SUPPORTS, &gaps)
+            .unwrap()
+            .unwrap();
+        let half = 0.5 * 0.1 * 9.81;
+        for v in &w {
+            assert!((v[0].abs() - half).abs() < 1e-2 * half, "{w:?}");
+        }
     }
 }

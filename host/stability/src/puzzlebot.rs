@@ -3,8 +3,9 @@
 //! along this heading before it tips or a connection fails" ([`max_safe_advance`]).
 //!
 //! Modelling choices (not in THESIS; stated here, kept out of `puzzlebot_params`):
-//! - non-pilot robots rest on 2 wheels at (0, ±L/2) and 2 frictionless ball casters at
-//!   (±0.4·length, 0); pilots on 4 wheels at (±0.4·length, ±L/2) (body frame, L = wheel base);
+//! - non-pilot robots rest on 2 wheels at (`plant.wheel_axle_offset`, ±L/2) and 2 frictionless
+//!   ball casters at (±`plant.caster_offset`, 0); pilots on 4 wheels at
+//!   (±`plant.wheel_axle_offset`, ±L/2) (body frame, L = wheel base), as the 3-D physics;
 //!   wheels hold friction in both directions (geared motors are not back-drivable);
 //! - a contact touches when the platform under it is at the assembly's level (±1 mm);
 //! - connections sit at the centre-of-mass height; the frame has x up, z horizontal into the
@@ -78,6 +79,12 @@ pub struct AdvanceOptions {
     /// as in the 3-D physics. The crossing planner sets it; off, the anchor is modelled as
     /// holding pitch up to its box limit.
     pub anchor_pitch_free: bool,
+    /// A soft anchor carries no pull along the chain: its head slides out of the opening over
+    /// its travel (THESIS 4.2.2: 5 mm, `coupling.anchor_travel`) before anything holds it, as
+    /// in the 3-D physics, so a robot hanging past an edge cannot lean on the anchor's tension
+    /// (with its wheels' friction) to stay level. It still pushes. The crossing planner sets
+    /// it; off, the anchor holds a pull up to `anchor_hold_force`.
+    pub anchor_slides: bool,
     /// A knob carries no couple about the shared face: it tilts freely until its hooks
     /// catch (THESIS 2.4.1; the 1 mm play over the knob and its 1.5 mm hook leave about
     /// ±12°), far beyond the small deflections of a standing assembly, as in the 3-D physics.
@@ -108,6 +115,7 @@ impl Default for AdvanceOptions {
         AdvanceOptions {
             rigid_couplings: false,
             anchor_pitch_free: false,
+            anchor_slides: false,
             knob_tilt_free: false,
             elastic: false,
             drive_accel: 0.0,
@@ -168,25 +176,24 @@ pub enum AdapterError {
     Model(#[from] crate::model::ModelError),
 }
 
-/// Contact points of a robot in its body frame, and whether each is a wheel (friction).
+/// Contact points of a robot in its body frame, and whether each is a wheel (friction): the
+/// wheels at (±`plant.wheel_axle_offset`, ±L/2) (one axle on a non-pilot, two on a pilot) and
+/// a non-pilot's casters at (±`plant.caster_offset`, 0), as the 3-D physics builds them.
 pub fn contact_points(kind: RobotKind, params: &FleetParams) -> Vec<([f64; 2], bool)> {
-    let g = &params.robot(kind).geometry;
-    let cx = 0.4 * g.length as f64;
-    let hy = 0.5 * g.wheel_base as f64;
-    match kind {
-        RobotKind::NonPilot => vec![
-            ([0.0, hy], true),
-            ([0.0, -hy], true),
-            ([cx, 0.0], false),
-            ([-cx, 0.0], false),
-        ],
-        RobotKind::Pilot => vec![
-            ([cx, hy], true),
-            ([cx, -hy], true),
-            ([-cx, hy], true),
-            ([-cx, -hy], true),
-        ],
+    let p = params.robot(kind);
+    let hy = 0.5 * f64::from(p.geometry.wheel_base);
+    let d = f64::from(p.plant.wheel_axle_offset);
+    let axles: &[f64] = if p.plant.four_wheels { &[d, -d] } else { &[d] };
+    let mut out: Vec<([f64; 2], bool)> = axles
+        .iter()
+        .flat_map(|&x| [([x, hy], true), ([x, -hy], true)])
+        .collect();
+    if !p.plant.four_wheels {
+        let c = f64::from(p.plant.caster_offset);
+        out.push(([c, 0.0], false));
+        out.push(([-c, 0.0], false));
     }
+    out
 }
 
 fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
@@ -346,6 +353,10 @@ pub fn build_model_with(
         // Pitch about the horizontal axis across the chain (local y; x up, z into the child).
         anchor.my = Some(0.0);
     }
+    if opt.anchor_slides {
+        // Pull along the chain (local z): the head slides out over its travel.
+        anchor.fz = Some(0.0);
+    }
     if opt.knob_tilt_free {
         // Tilt about the shared face: about the body's forward axis (local y; x up, z across
         // into the robot with the hole).
@@ -457,27 +468,7 @@ fn judge_one(
 ) -> Result<Option<LimitedBy>, AdapterError> {
     let rep = evaluate(m)?;
     Ok(match rep.verdict {
-        Verdict::Stable if opt.elastic && !opt.rigid_couplings => {
-            let r = m.resolve()?;
-            let c = &params.non_pilot.coupling;
-            let compliance = crate::elastic::Compliance {
-                force: 1.0 / f64::from(c.connector_stiffness),
-                couple: 1.0 / f64::from(c.connector_angular_stiffness),
-            };
-            match crate::elastic::distribution(&r, compliance) {
-                Ok(Some(w)) => {
-                    let pairs: Vec<usize> = crate::elastic::use_of_limits(&r, &w)
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, u)| u.is_some_and(|u| u > 1.0))
-                        .map(|(k, _)| k)
-                        .collect();
-                    (!pairs.is_empty()).then_some(LimitedBy::Connection { pairs })
-                }
-                Ok(None) => Some(LimitedBy::Tips),
-                Err(reason) => Some(LimitedBy::NotProven { reason }),
-            }
-        }
+        Verdict::Stable if opt.elastic && !opt.rigid_couplings => elastic_limit(m, params)?,
         Verdict::Stable => None,
         Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
         Verdict::InternalInstability => Some(LimitedBy::Connection {
@@ -485,6 +476,55 @@ fn judge_one(
         }),
         Verdict::NotProven { reason } => Some(LimitedBy::NotProven { reason }),
     })
+}
+
+/// How much softer than the connectors the supports are in the soft-support limit of
+/// [`elastic_limit`]: far enough that the assembly settles as one body (the connectors' loads
+/// lie within about 1/`SOFT_SUPPORTS` of the limit's).
+pub const SOFT_SUPPORTS: f64 = 1e3;
+
+/// The connections the elastic distribution overloads (`None`: none): the connectors snap
+/// open rather than yield ([`AdvanceOptions::elastic`]). How stiff the supports are against
+/// the connectors decides the distribution and is not known (tyres, printed platforms, a
+/// simulator's soft contacts sink a loaded robot by about a millimetre, where the connectors
+/// give a third of that under their hold force), so both limits must hold: rigid supports,
+/// and supports [`SOFT_SUPPORTS`] times softer than the connectors.
+fn elastic_limit(m: &Assembly, params: &FleetParams) -> Result<Option<LimitedBy>, AdapterError> {
+    let r = m.resolve()?;
+    let c = &params.non_pilot.coupling;
+    let force = 1.0 / f64::from(c.connector_stiffness);
+    // A contact over a lower platform stands clear of it by the drop.
+    let gaps: Vec<f64> = m
+        .contacts
+        .iter()
+        .map(|k| {
+            m.modules
+                .iter()
+                .find(|md| md.id == k.module)
+                .map_or(0.0, |md| (md.position[2] - k.point[2]).max(0.0))
+        })
+        .collect();
+    let mut over = vec![false; r.connections.len()];
+    for support in [0.0, SOFT_SUPPORTS * force] {
+        let compliance = crate::elastic::Compliance {
+            force,
+            couple: 1.0 / f64::from(c.connector_angular_stiffness),
+            support,
+        };
+        // On soft supports a loaded robot sinks further than any drop it could rest on.
+        let gaps: &[f64] = if support > 0.0 { &[] } else { &gaps };
+        match crate::elastic::distribution_with_gaps(&r, compliance, gaps) {
+            Ok(Some(w)) => {
+                for (o, u) in over.iter_mut().zip(crate::elastic::use_of_limits(&r, &w)) {
+                    *o |= u.is_some_and(|u| u > 1.0);
+                }
+            }
+            Ok(None) => return Ok(Some(LimitedBy::Tips)),
+            Err(reason) => return Ok(Some(LimitedBy::NotProven { reason })),
+        }
+    }
+    let pairs: Vec<usize> = (0..over.len()).filter(|&k| over[k]).collect();
+    Ok((!pairs.is_empty()).then_some(LimitedBy::Connection { pairs }))
 }
 
 /// How far this assembly can advance along `heading` (rad) before it tips or a connection

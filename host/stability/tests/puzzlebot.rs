@@ -76,6 +76,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        anchor_slides: false,
         knob_tilt_free: false,
         elastic: false,
         drive_accel: 0.0,
@@ -84,7 +85,8 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
     let bound = com_bound(&a, &p, edge);
-    assert!((bound - 0.28).abs() < 1e-9);
+    let caster = f64::from(p.non_pilot.plant.caster_offset);
+    assert!((bound - (edge - caster)).abs() < 1e-9);
     assert!((adv.distance - bound).abs() < 1e-5, "{adv:?} vs {bound}");
     assert_eq!(adv.limited_by, LimitedBy::Tips);
 }
@@ -126,6 +128,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
     let opt = AdvanceOptions {
         rigid_couplings: true,
         anchor_pitch_free: false,
+        anchor_slides: false,
         knob_tilt_free: false,
         elastic: false,
         drive_accel: 0.0,
@@ -164,7 +167,9 @@ fn flat_floor_reaches_the_horizon_and_a_step_up_blocks() {
         matches!(adv.limited_by, LimitedBy::StepUp { .. }),
         "{adv:?}"
     );
-    assert!((adv.distance - (0.5 - 0.02)).abs() < 1e-5, "{adv:?}");
+    // The front casters reach the wall.
+    let caster = f64::from(p.non_pilot.plant.caster_offset);
+    assert!((adv.distance - (0.5 - caster)).abs() < 1e-5, "{adv:?}");
 }
 
 #[test]
@@ -192,6 +197,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
         AdvanceOptions {
             rigid_couplings: true,
             anchor_pitch_free: false,
+            anchor_slides: false,
             knob_tilt_free: false,
             elastic: false,
             drive_accel: 0.0,
@@ -298,4 +304,61 @@ fn a_pilot_on_three_wheels_is_not_proven_under_the_drive_s_braking() {
         "{braking:?}: {first}"
     );
     assert_eq!(braking.limited_by, LimitedBy::Tips);
+}
+
+#[test]
+fn a_front_pilot_tips_when_its_front_wheels_leave_unless_the_anchor_holds_a_pull() {
+    // A pilot leading three non-pilots on soft anchors, driven over a cliff. With its front wheels
+    // past the edge the pilot stands on its rear axle with its centre of mass ahead of it:
+    // only a couple holds it level. A free-pitch anchor gives none by itself, but a pull at
+    // the anchor's height (the pilot's tail held back) against its rear wheels' friction
+    // does; the printed anchor slides out over its travel instead (THESIS 4.2.2), so with
+    // `anchor_slides` the gate stops where the front wheels leave the edge.
+    let p = params();
+    let pilot = RobotPose {
+        kind: RobotKind::Pilot,
+        ..np(0.0, 0.0)
+    };
+    let pitch = puzzlebot_params::formation::anchor_pitch(&p.non_pilot.geometry);
+    let mut robots = vec![pilot];
+    robots.extend((1..4).map(|i| np(-pitch * f64::from(i), 0.0)));
+    let pairs = (0..3)
+        .map(|i| Pair {
+            a: i,
+            b: i + 1,
+            kind: PairKind::Anchor,
+            point: None,
+        })
+        .collect();
+    let a = PuzzleAssembly { robots, pairs };
+    let edge = 0.05;
+    let front_wheels = contact_points(RobotKind::Pilot, &p)
+        .iter()
+        .map(|(b, _)| b[0])
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(
+        (front_wheels - f64::from(p.pilot.plant.wheel_axle_offset)).abs() < 1e-9,
+        "the gate's wheels are the physics' ({front_wheels})"
+    );
+    let advance = |anchor_slides: bool| {
+        let opt = AdvanceOptions {
+            anchor_pitch_free: true,
+            anchor_slides,
+            horizon: 0.2,
+            ..AdvanceOptions::default()
+        };
+        max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.002, opt).unwrap()
+    };
+    let slides = advance(true);
+    assert_eq!(slides.limited_by, LimitedBy::Tips, "{slides:?}");
+    assert!(
+        (slides.distance - (edge - front_wheels)).abs() < 1e-5,
+        "{slides:?}: the front wheels leave at {}",
+        edge - front_wheels
+    );
+    let pulls = advance(false);
+    assert!(
+        pulls.distance > slides.distance + 0.01,
+        "{pulls:?} vs {slides:?}"
+    );
 }

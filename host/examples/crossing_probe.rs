@@ -1,0 +1,202 @@
+//! One run of `puzzlebot experiment crossing` traced: every 10 ms the advance, each robot's
+//! position, sag, pitch and roll (mm, degrees), each coupling's force and moment components
+//! in % of its limits (physics), and the share of its limits each connection uses in the
+//! gate's elastic distribution for the assembly as planned, translated by that advance.
+//!
+//! `cargo run --release -p puzzlebot-host --example crossing_probe -- "mesh 2x3" none 70 6 0 90`
+//! (shape, pilots, gap width mm, drop mm, heading degrees, stop after mm). `SUPPORT=k` takes
+//! the gate's supports k times softer than the connectors (0: rigid); `SETTLE=1` stops the
+//! drive there and traces the assembly standing.
+
+use puzzlebot_host::crossing::drive3d::{self, CrossSettings};
+use puzzlebot_host::crossing::formed::Formed;
+use puzzlebot_host::experiment::crossing::{configs, predict, Obstacle};
+use puzzlebot_params::formation::{self, Shape};
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_sim::physics3d::World3d;
+use puzzlebot_stability::crossing::formed;
+use puzzlebot_stability::elastic;
+use puzzlebot_stability::puzzlebot::{assembly_level, build_model_with};
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let shape_name = a.get(1).cloned().unwrap_or("mesh 2x3".into());
+    let pilots = a.get(2).cloned().unwrap_or("none".into());
+    let num = |i: usize, d: f64| a.get(i).and_then(|s| s.parse().ok()).unwrap_or(d);
+    let obstacle = Obstacle {
+        width: num(3, 60.0) * 1e-3,
+        drop: num(4, 0.0) * 1e-3,
+    };
+    let heading = num(5, 0.0);
+    let until = num(6, 1e9) * 1e-3;
+    let params = FleetParams::default();
+    let cfgs = configs(&[2, 4, 6, 8, 9], &params);
+    let cfg = cfgs
+        .iter()
+        .find(|c| c.shape == shape_name && c.pilots == pilots)
+        .expect("configuration");
+    let (cand, rigid) = predict(cfg, obstacle, heading, &params).expect("predict");
+    println!(
+        "gate {:.1} mm {:?}; rigid {:.1} mm {:?}; required {:.1} mm; start {:?}",
+        cand.advance.distance * 1e3,
+        cand.advance.limited_by,
+        rigid.distance * 1e3,
+        rigid.limited_by,
+        cand.required * 1e3,
+        cand.start
+    );
+    let shape = match shape_name.split_whitespace().collect::<Vec<_>>()[..] {
+        ["line", n] => Shape::Line(n.parse().expect("n")),
+        ["mesh", rc] => {
+            let (r, c) = rc.split_once('x').expect("RxC");
+            Shape::Mesh {
+                rows: r.parse().expect("rows"),
+                per_row: c.parse().expect("per_row"),
+            }
+        }
+        _ => panic!("shape"),
+    };
+    let links = formation::layout(shape, &params.non_pilot.geometry).1;
+    let n = shape.count();
+    let formed_asm = Formed {
+        shape,
+        ids: (1..=n as u16).collect(),
+        kinds: (0..n)
+            .map(|k| {
+                if cfg.pilot_places.contains(&k) {
+                    RobotKind::Pilot
+                } else {
+                    RobotKind::NonPilot
+                }
+            })
+            .collect(),
+        links: links.clone(),
+        fit_error: 0.0,
+    };
+    let terrain = obstacle.terrain();
+    let settings = CrossSettings {
+        live_gate: false,
+        stop_on_failure: false,
+        ..CrossSettings::default()
+    };
+    let s = drive3d::scenario(&formed_asm, &cand, &terrain, &params, 1);
+    let mut w = World3d::new(&s, settings.world).expect("world");
+    w.run_for((settings.settle_s * 1e6) as u64);
+    let h = heading.to_radians();
+    let dir = [h.cos(), h.sin()];
+    let start: Vec<[f64; 3]> = w.states().iter().map(|r| r.position).collect();
+    let rpm = drive3d::rpm_for(settings.speed, &params);
+    w.command_all(Some([rpm, rpm]));
+    let strength = |k: puzzlebot_sim::LinkKind| {
+        let p = &params.non_pilot;
+        let lever = 0.5 * f64::from(p.geometry.height);
+        let f = f64::from(match k {
+            puzzlebot_sim::LinkKind::Anchor => p.coupling.anchor_hold_force,
+            puzzlebot_sim::LinkKind::Knob => p.coupling.knob_hold_force,
+        });
+        (f, f * lever)
+    };
+    let planned = formed(shape, &cfg.pilot_places, &params, cand.start, h);
+    let level = assembly_level(&planned, &params, &terrain).expect("level");
+    let aopt = drive3d::crossing_options(&settings, &params).advance_options(cand.required);
+    let kinds: Vec<_> = w.couplings().iter().map(|c| (c.0, c.1, c.2)).collect();
+    println!("couplings {kinds:?}");
+    let mut seen = 0;
+    let goal = cand.required + settings.overshoot;
+    while w.time_us() < 60_000_000 {
+        w.run_for(10_000);
+        let st = w.states();
+        let d = st
+            .iter()
+            .zip(&start)
+            .map(|(r, p0)| (r.position[0] - p0[0]) * dir[0] + (r.position[1] - p0[1]) * dir[1])
+            .sum::<f64>()
+            / n as f64;
+        let mut line = format!("d {:6.1}", d * 1e3);
+        for (r, p0) in st.iter().zip(&start) {
+            line += &format!(
+                " | x{:6.1} z{:5.2} p{:5.1} r{:5.1}",
+                r.position[0] * 1e3,
+                (r.position[2] - p0[2]) * 1e3,
+                r.rpy[1].to_degrees(),
+                r.rpy[0].to_degrees()
+            );
+        }
+        line += " ||";
+        for (l, k) in w.coupling_loads().iter().zip(&kinds) {
+            match l {
+                Some((f, m)) => {
+                    let (fl, ml) = strength(k.0);
+                    let fs: Vec<String> = f
+                        .iter()
+                        .map(|v| format!("{:4.0}", 100.0 * v / fl))
+                        .collect();
+                    let ms: Vec<String> = m
+                        .iter()
+                        .map(|v| format!("{:4.0}", 100.0 * v / ml))
+                        .collect();
+                    line += &format!(
+                        " {}{}-{}[{}/{}]",
+                        if k.0 == puzzlebot_sim::LinkKind::Anchor {
+                            "A"
+                        } else {
+                            "K"
+                        },
+                        k.1,
+                        k.2,
+                        fs.join(""),
+                        ms.join("")
+                    );
+                }
+                None => line += " x",
+            }
+        }
+        // The gate's elastic use of every connection limit with the assembly as planned,
+        // translated by the measured advance.
+        let m = build_model_with(
+            &planned,
+            &params,
+            &terrain,
+            level,
+            [dir[0] * d, dir[1] * d],
+            &aopt,
+        )
+        .expect("model");
+        let r = m.resolve().expect("resolve");
+        let c = &params.non_pilot.coupling;
+        let comp = elastic::Compliance {
+            force: 1.0 / f64::from(c.connector_stiffness),
+            couple: 1.0 / f64::from(c.connector_angular_stiffness),
+            support: std::env::var("SUPPORT")
+                .ok()
+                .and_then(|v| v.parse::<f64>().ok())
+                .unwrap_or(0.0)
+                / f64::from(c.connector_stiffness),
+        };
+        line += " || gate";
+        match elastic::distribution(&r, comp) {
+            Ok(Some(wr)) => {
+                for u in elastic::use_of_limits(&r, &wr) {
+                    line += &format!(" {:4.0}", 100.0 * u.unwrap_or(0.0));
+                }
+            }
+            Ok(None) => line += " tips",
+            Err(e) => line += &format!(" {e}"),
+        }
+        println!("{line}");
+        for e in &w.events()[seen..] {
+            println!("EVENT {e:?} at {:.1} mm", d * 1e3);
+        }
+        seen = w.events().len();
+        if d >= goal || d >= until {
+            if std::env::var("SETTLE").is_ok() && w.time_us() < 50_000_000 {
+                w.command_all(Some([0.0, 0.0]));
+                w.run_for(1_000_000);
+                println!("settled 1 s:");
+                w.run_for(1_000_000);
+                continue;
+            }
+            break;
+        }
+    }
+}
