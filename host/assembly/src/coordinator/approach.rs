@@ -466,8 +466,14 @@ impl Coordinator {
             return Some(held);
         }
         // The pilot alone (its link popped after the train had joined): it can only drive
-        // straight back in along the lane, so only while it still stands on it.
-        if me == pilot {
+        // straight back in along the lane, so only while it still stands on it. Leading the
+        // train, it is not alone: the train backs off and comes in again (below).
+        let alone = segments
+            .values()
+            .filter(|&s| segments.get(&me) == Some(s))
+            .count()
+            == 1;
+        if me == pilot && alone {
             let k = self.robots.get(&pilot)?.pose;
             let lat = fin.inverse_transform(k.xy())[1];
             if lat.abs() > LANE_TOLERANCE.0 || wrap_angle(k.yaw - fin.yaw).abs() > LANE_TOLERANCE.1
