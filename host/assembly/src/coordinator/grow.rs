@@ -268,6 +268,63 @@ mod tests {
     }
 
     #[test]
+    fn a_lane_pilot_leading_its_train_off_the_lane_backs_off_and_comes_in_again() {
+        // A line on pilot 1 with pilot 2 in its lane; the seed's assembly and the train
+        // behind pilot 2 formed; pilot 2 leads the train into the seed's assembly, 20 mm off
+        // the lane. A pilot alone off the lane holds (it only drives straight); one leading
+        // a train does not: stalled, the train backs off to come in again.
+        let mut c = coordinator();
+        let mut robots = vec![
+            np(1, 0.0, 0.0, 0.0),
+            np(2, -0.16, 0.0, 0.0),
+            np(3, 0.1, 0.3, 1.0),
+            np(4, -0.3, 0.3, 2.0),
+            np(5, 0.2, -0.3, -1.0),
+        ];
+        robots[0].kind = RobotKind::Pilot;
+        robots[1].kind = RobotKind::Pilot;
+        c.form_grown(0.0, ShapeSpec::Line, &robots, None).unwrap();
+        let kinds: BTreeMap<RobotId, RobotKind> = robots.iter().map(|r| (r.id, r.kind)).collect();
+        let plan = c.plan().unwrap().clone();
+        // Pilot 2's pair towards pilot 1 (the lane pair) and the robots behind it.
+        let at = |id: RobotId| plan.goal_of(id).unwrap();
+        let along = |id: RobotId| at(1).inverse_transform(at(id).xy())[0];
+        let ahead = plan
+            .pairs
+            .iter()
+            .find(|p| (p.a == 2 || p.b == 2) && along(if p.a == 2 { p.b } else { p.a }) > along(2))
+            .map(|p| if p.a == 2 { p.b } else { p.a })
+            .unwrap();
+        // Everyone at its place, the train (pilot 2 and those behind it) 30 mm back and
+        // 20 mm to the side.
+        let shift = at(1)
+            .compose(&Pose2::new(-0.03, 0.02, 0.0))
+            .compose(&at(1).inverse());
+        let mut placed = at_goals(&c, &kinds);
+        for r in placed.iter_mut() {
+            if along(r.id) <= along(2) {
+                r.pose = shift.compose(&r.pose);
+            }
+        }
+        let lane_pair = (0..c.pairs().len())
+            .find(|&i| {
+                let p = c.pairs()[i].pair;
+                [p.a, p.b].contains(&2) && [p.a, p.b].contains(&ahead)
+            })
+            .unwrap();
+        let mut t = 0.0;
+        let mut moved = false;
+        while t < 10.0 && !moved {
+            t += 0.1;
+            let tick = c.tick(t, &placed);
+            if tick.active.contains(&lane_pair) {
+                moved = matches!(role_of(&tick, 2), Role::Dock { v, .. } if *v != 0.0);
+            }
+        }
+        assert!(moved, "the train led by pilot 2 stays held off the lane");
+    }
+
+    #[test]
     fn a_second_pilot_in_the_lane_is_linked_to_the_seed_first() {
         // Pilot 2 set down 0.4 m behind pilot 1, facing the same way (a little off by hand);
         // four non-pilots scattered. THESIS 5.4.1: pilots move straight only.
