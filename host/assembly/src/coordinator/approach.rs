@@ -1,26 +1,8 @@
 //! How a lone robot gets to its place: the staged approaches (side docking, anchor approach to
 //! a partner that holds) and the lane train that brings a second pilot to a grown assembly.
 
-use super::routing::{APPROACH_GAP, ROUTE_CLEARANCE};
 use super::*;
 use crate::assign::LANE_TOLERANCE;
-
-/// Extra run-in of an anchor approach whose axis runs between other robots (m): three decay
-/// lengths (1 / [`DockConfig::k_lat`]) of the line follower.
-pub(super) const FLUSH_RUN_IN: f64 = 0.08;
-/// Step of the search for a clear stand-off along an anchor approach's axis (m).
-const STANDOFF_STEP: f64 = 0.02;
-/// Lateral distance an anchor approach keeps from robots beside its axis (m): more than a
-/// knob's 1.5 mm seat gap.
-const FLUSH_OFFSET: f64 = 0.004;
-/// Distance before the place where an anchor approach closes [`FLUSH_OFFSET`] (m): less than
-/// the 25 mm to the next wrong hole.
-const FLUSH_CONVERGE: f64 = 0.02;
-/// Speed of the robot hitched behind a lane train's leader relative to the leader's
-/// ([`Coordinator::lane_train_roles`]).
-const LANE_TRAIL: f64 = 0.6;
-/// Fastest turn of a non-pilot leading a lane train (rad/s).
-const LANE_TURN: f64 = 0.5;
 
 /// A docking robot relative to its final pose (see [`Role::Dock`]).
 pub(super) struct DockFrame {
@@ -136,11 +118,13 @@ impl Coordinator {
             let others = self.others(me);
             let field = Field {
                 obstacles: &others,
-                clearance: ROUTE_CLEARANCE,
+                clearance: self.room().route_clearance,
             };
             let field_gap = |p: &Pose2| field.nearest(p.xy());
             let mut goal = pre(sigma);
-            if field_gap(&goal) < APPROACH_GAP && field_gap(&pre(-sigma)) > field_gap(&goal) {
+            if field_gap(&goal) < self.room().approach_gap
+                && field_gap(&pre(-sigma)) > field_gap(&goal)
+            {
                 goal = pre(-sigma);
             }
             let dist = (goal.x - km.pose.x).hypot(goal.y - km.pose.y);
@@ -151,7 +135,7 @@ impl Coordinator {
                 return Some(self.drive_to(i, &km.pose, next));
             }
             // There: turn on the spot to the approach heading.
-            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();
             let (v, w) = self.turn_in_place(&km.pose, goal.xy(), w);
             return Some(Role::Dock { pair: i, v, w });
         }
@@ -227,7 +211,7 @@ impl Coordinator {
             // driving now would close the hold at once (flush with the side at the wrong
             // hole). Only on the way in: sweeping over the place, turns on the spot at each
             // reversal would keep robots from clicking in.
-            let w = (d.k_theta * err.abs()).clamp(d.min_turn, 1.5) * -err.signum();
+            let w = (d.k_theta * err.abs()).clamp(d.min_turn, d.max_turn) * -err.signum();
             return Some(Role::Dock { pair: i, v: 0.0, w });
         }
         Some(Role::Dock {
@@ -240,8 +224,8 @@ impl Coordinator {
     /// The stand-off of a staged anchor approach to the place `fin` (m out along its axis,
     /// `s` the side of the robot's connection point): the nearest point from
     /// [`DockConfig::standoff`] out that is clear of every other robot by
-    /// [`ROUTE_CLEARANCE`] (beside an assembly the axis may run between robots). When the
-    /// axis runs between robots, the line follower gets up to [`FLUSH_RUN_IN`] more to
+    /// [`Room::route_clearance`](super::routing::Room) (beside an assembly the axis may run between robots). When the
+    /// axis runs between robots, the line follower gets up to [`DockConfig::flush_run_in`] more to
     /// converge before the robot slides in beside them (askew, it would push them): as much
     /// of it as keeps the stand-off clear (the full run-in can put the stand-off beside a
     /// waiting robot, where the route refuses to go and the robot would hold for good).
@@ -250,14 +234,14 @@ impl Coordinator {
         let others = self.others(me);
         let field = Field {
             obstacles: &others,
-            clearance: ROUTE_CLEARANCE,
+            clearance: self.room().route_clearance,
         };
         let clear = |sd: f64| {
             let p = fin.compose(&Pose2::new(-s * sd, 0.0, 0.0));
-            field.nearest(p.xy()) >= ROUTE_CLEARANCE
+            field.nearest(p.xy()) >= self.room().route_clearance
         };
         let Some(sd) = (0..=12)
-            .map(|k| d.standoff + STANDOFF_STEP * k as f64)
+            .map(|k| d.standoff + d.standoff_step * k as f64)
             .find(|&sd| clear(sd))
         else {
             return d.standoff;
@@ -265,9 +249,9 @@ impl Coordinator {
         if sd <= d.standoff {
             return sd;
         }
-        let steps = (FLUSH_RUN_IN / STANDOFF_STEP).round() as usize;
+        let steps = (d.flush_run_in / d.standoff_step).round() as usize;
         (0..=steps)
-            .map(|k| sd + FLUSH_RUN_IN - STANDOFF_STEP * k as f64)
+            .map(|k| sd + d.flush_run_in - d.standoff_step * k as f64)
             .find(|&e| clear(e))
             .unwrap_or(sd)
     }
@@ -320,7 +304,8 @@ impl Coordinator {
             }
             Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
                 // Turn on the spot, never slower than the wheels' dead-band allows.
-                let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, 1.5) * -yaw_rel.signum();
+                let w =
+                    (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();
                 let (v, w) = self.turn_in_place(&km.pose, pre.xy(), w);
                 return Some(Role::Dock { pair: i, v, w });
             }
@@ -378,7 +363,7 @@ impl Coordinator {
         // Line follower along the axis: heading towards the axis in proportion to the
         // lateral offset (moving forward: θ = −k·lat; reversing: θ = +k·lat).
         // Beside other robots (the axis runs along an assembly's side) the robot keeps
-        // `FLUSH_OFFSET` away from them until the last `FLUSH_CONVERGE`: sliding flush, its
+        // `flush_offset` away from them until the last `flush_converge`: sliding flush, its
         // knobs would click into their holes at the wrong place.
         let partner = self.pairs.get(i).map(|tp| {
             if tp.pair.a == me {
@@ -401,12 +386,12 @@ impl Coordinator {
             .filter(|o| o[1].abs() < 0.08 && -s * o[0] > -0.05 && -s * o[0] < out + 0.05)
         {
             if o[1] < 0.0 {
-                low = low.max(o[1] + width + FLUSH_OFFSET);
+                low = low.max(o[1] + width + d.flush_offset);
             } else {
-                high = high.min(o[1] - width - FLUSH_OFFSET);
+                high = high.min(o[1] - width - d.flush_offset);
             }
         }
-        let lat_goal = if out <= FLUSH_CONVERGE {
+        let lat_goal = if out <= d.flush_converge {
             0.0
         } else if low > high {
             // Between robots on both sides: the middle.
@@ -516,7 +501,7 @@ impl Coordinator {
         let w_max = if lead == pilot {
             0.9 * d.speed / self.cfg.pilot_turn_radius
         } else {
-            LANE_TURN
+            d.lane_turn
         };
         let lat = fin.inverse_transform(kl.xy())[1];
         let yaw_rel = wrap_angle(kl.yaw - fin.yaw);
@@ -538,7 +523,7 @@ impl Coordinator {
                 follow,
                 Role::Dock {
                     pair: i,
-                    v: LANE_TRAIL * v_lead,
+                    v: d.lane_trail * v_lead,
                     w: 0.0,
                 },
             ));

@@ -72,6 +72,34 @@ pub struct DockConfig {
     pub in_yaw: f64,
     /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
     pub min_turn: f64,
+    /// Fastest turn on the spot (rad/s): below the butterfly's corner A (2.19 rad/s), so
+    /// the turn stays a few ticks long and stops within its tolerance.
+    pub max_turn: f64,
+    /// Step of the search for a clear stand-off along an anchor approach's axis (m).
+    pub standoff_step: f64,
+    /// Extra run-in of an anchor approach whose axis runs between other robots (m): the
+    /// line follower's lateral offset decays over 1 / [`DockConfig::k_lat`] of travel, and
+    /// this is well over that.
+    pub flush_run_in: f64,
+    /// Lateral distance an anchor approach keeps from robots beside its axis (m): more than
+    /// a knob's 1.5 mm seat gap.
+    pub flush_offset: f64,
+    /// Distance before the place where an anchor approach closes
+    /// [`DockConfig::flush_offset`] (m): less than the 25 mm to the next wrong hole.
+    pub flush_converge: f64,
+    /// Speed of the robot hitched behind a lane train's leader relative to the leader's
+    /// (ratio; [`Coordinator::lane_train_roles`]): slower, so the leader pulls it.
+    pub lane_trail: f64,
+    /// Fastest turn of a non-pilot leading a lane train (rad/s).
+    pub lane_turn: f64,
+    /// Growing: how far an assembly may drive ahead to straighten before a robot docks at
+    /// its side (m, per pair).
+    pub grow_straighten: f64,
+    /// How far beyond the route clearance of an approach's stand-off a robot that makes
+    /// way for it stands (m).
+    pub standoff_margin: f64,
+    /// How far around the robots a route may swing out (m).
+    pub route_margin: f64,
     /// An anchor pair whose head stays inside the opening's guide, moving less than the
     /// anchor's travel, for this long (s) while one of its robots drives away from the other
     /// at the approach speed is coupled ([`tug`]): an uncoupled head would have left the
@@ -105,6 +133,16 @@ impl Default for DockConfig {
             in_yaw: 0.2,
             standoff: 0.06,
             min_turn: 0.9,
+            max_turn: 1.5,
+            standoff_step: 0.02,
+            flush_run_in: 0.08,
+            flush_offset: 0.004,
+            flush_converge: 0.02,
+            lane_trail: 0.6,
+            lane_turn: 0.5,
+            grow_straighten: 0.1,
+            standoff_margin: 0.01,
+            route_margin: 0.3,
             tug_s: 1.5,
         }
     }
@@ -140,6 +178,9 @@ pub struct CoordinatorConfig {
     /// without motion, so a "turn on the spot" runs on a circle this wide
     /// ([`Coordinator::turn_in_place`]).
     pub turn_radius: f64,
+    /// Room to spare between two robot bodies that pass or stand beside each other (m),
+    /// added to their sizes ([`Coordinator::room`]).
+    pub spare: f64,
 }
 
 impl Default for CoordinatorConfig {
@@ -157,6 +198,7 @@ impl Default for CoordinatorConfig {
                 .min_turn_radius(),
             turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::NonPilot)
                 .min_turn_radius(),
+            spare: 0.005,
         }
     }
 }

@@ -480,7 +480,7 @@ mod tests {
             Role::GoTo { goal, .. } => {
                 let o = f.fin.inverse_transform(goal.xy());
                 assert!(
-                    o[1] > routing::ROUTE_CLEARANCE,
+                    o[1] > c.room().route_clearance,
                     "clear of the stand-off: {o:?}"
                 );
             }

@@ -3,18 +3,6 @@
 
 use super::*;
 
-/// How far outside an approach corridor a robot that makes way for it stands (m): half a
-/// body and 5 mm, so its body clears the corridor's edge.
-pub const MAKE_WAY_MARGIN: f64 = 0.03;
-
-/// How far beyond the route clearance of an approach's stand-off a robot that makes way for
-/// it stands (m).
-pub const STANDOFF_MARGIN: f64 = 0.01;
-
-/// Half-width of a lane train's corridor that another robot's centre blocks (m): a body
-/// (two half bodies) and 5 mm.
-const LANE_BLOCK_HALF_WIDTH: f64 = 0.055;
-
 impl Coordinator {
     /// Non-conflicting active pairs (one per segment; THESIS Algorithm 3 busy flags lifted to
     /// segments so that each segment has one leader, 5.5.9).
@@ -181,8 +169,8 @@ impl Coordinator {
     /// The robots in the way of pair `i`'s staged approach: on its axis (flag `true`, what
     /// [`Coordinator::approach_blocked`] counts) or too near its stand-off for the route
     /// there. Each comes with a place it can stand instead: beside the axis on the side it
-    /// already stands, clear of the corridor by [`MAKE_WAY_MARGIN`] and of the stand-off by
-    /// the route clearance and [`STANDOFF_MARGIN`].
+    /// already stands, clear of the corridor by the make-way margin and of the stand-off by
+    /// the route clearance ([`super::routing::Room`]) and [`DockConfig::standoff_margin`].
     pub(super) fn approach_blockers(
         &self,
         i: usize,
@@ -202,10 +190,11 @@ impl Coordinator {
         };
         // Own connection point at the front: the approach comes from behind the place.
         let s = f.normal.0.signum();
+        let room = self.room();
         let reach = if train {
             -s * f.here[0]
         } else {
-            self.cfg.dock.standoff + super::routing::ROUTE_CLEARANCE
+            self.cfg.dock.standoff + room.route_clearance
         };
         self.robots
             .iter()
@@ -220,19 +209,19 @@ impl Coordinator {
                 let out = -s * o[0];
                 // A train's bodies sweep the lane: anyone whose body overlaps it blocks.
                 let half = if train {
-                    LANE_BLOCK_HALF_WIDTH
+                    room.lane_block_half_width
                 } else {
                     f64::from(self.geometry.width)
                 };
                 let on_axis = out > 0.0 && out < reach && o[1].abs() < half;
                 // Too near the stand-off for the route there (it keeps its clearance).
                 let dx = out - self.cfg.dock.standoff;
-                let at_standoff = !train && dx.hypot(o[1]) < super::routing::ROUTE_CLEARANCE;
+                let at_standoff = !train && dx.hypot(o[1]) < room.route_clearance;
                 (on_axis || at_standoff).then(|| {
                     let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
-                    let clear = super::routing::ROUTE_CLEARANCE + STANDOFF_MARGIN;
-                    let lat =
-                        (half + MAKE_WAY_MARGIN).max((clear * clear - dx * dx).max(0.0).sqrt());
+                    let clear = room.route_clearance + self.cfg.dock.standoff_margin;
+                    let lat = (half + room.make_way_margin)
+                        .max((clear * clear - dx * dx).max(0.0).sqrt());
                     let to = f.fin.transform([o[0], side * lat]);
                     (id, Pose2::new(to[0], to[1], k.pose.yaw), on_axis)
                 })

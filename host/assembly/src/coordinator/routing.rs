@@ -3,16 +3,39 @@
 
 use super::*;
 
-/// Centre distance a robot driving to the start of an approach keeps from every other robot
-/// (m): two 50 mm bodies at any angle (circumscribed radii 35 mm) and 5 mm to spare.
-pub(super) const ROUTE_CLEARANCE: f64 = 0.075;
-/// Smallest centre distance of the start of an approach to another robot (m): beside an
-/// assembly's side (50 mm bodies, 6 mm off), not closer.
-pub(super) const APPROACH_GAP: f64 = 0.05;
-/// How far around the robots a route may swing out (m).
-const ROUTE_MARGIN: f64 = 0.3;
+/// Room kept between robots, from the body's size and [`CoordinatorConfig::spare`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Room {
+    /// Centre distance a robot driving to the start of an approach keeps from every other
+    /// robot (m): two bodies at any angle (their circumscribed radii) and the spare.
+    pub(super) route_clearance: f64,
+    /// Smallest centre distance of the start of an approach to another robot (m): a body
+    /// width (beside an assembly's side, not closer).
+    pub(super) approach_gap: f64,
+    /// How far outside an approach corridor a robot that makes way for it stands (m): half
+    /// a body and the spare, so its body clears the corridor's edge.
+    pub(super) make_way_margin: f64,
+    /// Half-width of a lane train's corridor that another robot's centre blocks (m): a body
+    /// (two half bodies) and the spare.
+    pub(super) lane_block_half_width: f64,
+}
 
 impl Coordinator {
+    /// The room kept between robots ([`Room`]).
+    pub(super) fn room(&self) -> Room {
+        let (l, w) = (
+            f64::from(self.geometry.length),
+            f64::from(self.geometry.width),
+        );
+        let spare = self.cfg.spare;
+        Room {
+            route_clearance: 2.0 * (0.5 * l).hypot(0.5 * w) + spare,
+            approach_gap: w,
+            make_way_margin: 0.5 * w + spare,
+            lane_block_half_width: w + spare,
+        }
+    }
+
     /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
     /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
     /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
@@ -26,7 +49,7 @@ impl Coordinator {
             dir = -1.0;
         }
         if e.abs() > 0.3 {
-            let w = (d.k_theta * e.abs()).clamp(d.min_turn, 1.5) * e.signum();
+            let w = (d.k_theta * e.abs()).clamp(d.min_turn, d.max_turn) * e.signum();
             return self.turn_in_place(pose, goal, w);
         }
         (dir * d.speed, d.k_theta * e)
@@ -70,7 +93,7 @@ impl Coordinator {
     /// The next waypoint of robot `me` on its way to `goal` round every other robot
     /// ([`crate::route`]); None when there is no way (it waits).
     pub(super) fn route_step(&self, me: RobotId, goal: [f64; 2]) -> Option<[f64; 2]> {
-        self.next_waypoint(me, goal, APPROACH_GAP)
+        self.next_waypoint(me, goal, self.room().approach_gap)
     }
 
     /// The next waypoint of dispersing robot `me` on its way to `goal` round every other
@@ -88,9 +111,9 @@ impl Coordinator {
         let obstacles = self.others(me);
         let field = Field {
             obstacles: &obstacles,
-            clearance: ROUTE_CLEARANCE,
+            clearance: self.room().route_clearance,
         };
-        route(start, goal, &field, goal_gap, ROUTE_MARGIN)?
+        route(start, goal, &field, goal_gap, self.cfg.dock.route_margin)?
             .first()
             .copied()
     }

@@ -3,10 +3,6 @@
 
 use super::*;
 
-/// Growing: how far an assembly may drive ahead to straighten before a robot docks at its side
-/// (m, per pair).
-const GROW_STRAIGHTEN: f64 = 0.1;
-
 impl Coordinator {
     pub(super) fn align_role(&self, i: usize, me: RobotId) -> Role {
         let tp = &self.pairs[i];
@@ -176,13 +172,14 @@ impl Coordinator {
                         let near = self
                             .dock_frame(i, me)
                             .is_none_or(|f| f.lat < self.cfg.dock.clearance);
-                        // Growing, for at most `GROW_STRAIGHTEN` per pair (a pilot in the
+                        // Growing, for at most `grow_straighten` per pair (a pilot in the
                         // assembly may keep it bent, and it would drive on and on).
                         let straighten_left = self.grow.is_none()
                             || self.robots.get(&other).is_some_and(|k| {
                                 let mut from = self.straighten_from.borrow_mut();
                                 let o = *from.entry(i).or_insert(k.pose.xy());
-                                (k.pose.x - o[0]).hypot(k.pose.y - o[1]) < GROW_STRAIGHTEN
+                                (k.pose.x - o[0]).hypot(k.pose.y - o[1])
+                                    < self.cfg.dock.grow_straighten
                             });
                         if !near
                             && straighten_left

@@ -362,8 +362,6 @@ fn an_anchor_approach_beside_a_row_keeps_off_the_robots_where_they_are() {
 
 #[test]
 fn an_anchor_approach_shortens_its_run_in_to_keep_clear_of_a_waiting_robot() {
-    use approach::FLUSH_RUN_IN;
-    use routing::ROUTE_CLEARANCE;
     let OtherRow {
         mut c,
         goal,
@@ -397,7 +395,7 @@ fn an_anchor_approach_shortens_its_run_in_to_keep_clear_of_a_waiting_robot() {
     // The stand-off moves out past it, plus the line follower's run-in.
     let full = c.approach_standoff(&frame.fin, s, me);
     assert!(
-        full >= c.cfg.dock.standoff + FLUSH_RUN_IN - 1e-9,
+        full >= c.cfg.dock.standoff + c.cfg.dock.flush_run_in - 1e-9,
         "stand-off {full}"
     );
     // A robot waits 4 cm beside that stand-off, on the side away from the row.
@@ -410,11 +408,14 @@ fn an_anchor_approach_shortens_its_run_in_to_keep_clear_of_a_waiting_robot() {
     let short = c.approach_standoff(&frame.fin, s, me);
     let pre = frame.fin.compose(&Pose2::new(-s * short, 0.0, 0.0));
     assert!(
-        short < full && short >= full - FLUSH_RUN_IN - 1e-9,
+        short < full && short >= full - c.cfg.dock.flush_run_in - 1e-9,
         "stand-off {short} (without the waiting robot {full})"
     );
     let gap = (pre.x - waiting.x).hypot(pre.y - waiting.y);
-    assert!(gap >= ROUTE_CLEARANCE, "{gap} from the waiting robot");
+    assert!(
+        gap >= c.room().route_clearance,
+        "{gap} from the waiting robot"
+    );
     // So the robot drives to it (a stand-off beside the waiting robot has no route: it
     // would hold for good).
     let role = c.anchor_approach_role(j, me);
