@@ -286,11 +286,9 @@ impl Coordinator {
                 (Some(a), Some(b)) => wrap_angle(a - b),
                 _ => f64::NAN,
             };
-            let at = self.robots.get(&w.robot).map_or([0.0; 2], |k| k.pose.xy());
             self.wiggle_turns
                 .entry(w.robot)
-                .or_insert_with(|| (WiggleTurn::new(t), at))
-                .0
+                .or_insert_with(|| WiggleTurn::new(t))
                 .update(t, phi, reach, w.wiggle.period_s);
         }
     }
@@ -303,22 +301,16 @@ impl Coordinator {
 
     /// (v, ω) of a wiggling robot at time `t`.
     pub(super) fn wiggle_command(&self, w: &Wiggler, t: f64) -> (f64, f64) {
-        let pose = self.robots.get(&w.robot).map(|k| k.pose);
-        let (turn, at) = self
+        let turn = self
             .wiggle_turns
             .get(&w.robot)
             .copied()
-            .unwrap_or_else(|| (WiggleTurn::new(t), pose.map_or([0.0; 2], |p| p.xy())));
+            .unwrap_or_else(|| WiggleTurn::new(t));
         if w.clearing {
             return (w.v_sign * self.pull_speed(w), 0.0);
         }
         let (v, om) = w.wiggle.command_closed(t - w.start, &turn);
-        match pose {
-            // Wiggling in place (held at both ends): a turn without motion pivots forwards
-            // into the robot ahead; it turns where it stood instead.
-            Some(p) if w.v_sign == 0.0 && om != 0.0 => self.turn_in_place(&p, at, om),
-            _ => (w.v_sign * v, om),
-        }
+        (w.v_sign * v, om)
     }
 
     /// Knobs seated where the plan does not put those two robots side by side (a robot

@@ -149,9 +149,8 @@ pub struct Coordinator {
     kept_at: BTreeMap<RobotId, Pose2>,
     /// Time of the current tick (s).
     now: f64,
-    /// Closed-loop wiggles: the turning sense of every wiggling robot, and where it stood
-    /// when its wiggle began (a wiggle in place stays there, [`Coordinator::turn_in_place`]).
-    wiggle_turns: BTreeMap<RobotId, (WiggleTurn, [f64; 2])>,
+    /// Closed-loop wiggles: the turning sense of every wiggling robot.
+    wiggle_turns: BTreeMap<RobotId, WiggleTurn>,
     /// Anchor pairs under a tug: since when the pair's head has stayed inside the opening's
     /// guide while a robot of the pair drove, and where it was then ([`tug`]).
     tugs: BTreeMap<usize, tug::Tug>,
