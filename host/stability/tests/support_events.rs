@@ -14,11 +14,12 @@ fn np(x: f64) -> RobotPose {
     }
 }
 
-/// Centre of mass a little behind the wheel axle: a lone robot stands on its wheels and back
-/// caster (keeps the geometry non-degenerate).
+/// Centre of mass a little behind the wheel axle and off the casters' line: a lone robot
+/// stands on its wheels and back caster, not on its casters alone (keeps the geometry
+/// non-degenerate).
 fn behind() -> FleetParams {
     let mut p = FleetParams::default();
-    p.non_pilot.mass.com = [-0.005, 0.0];
+    p.non_pilot.mass.com = [-0.005, 0.002];
     p
 }
 
@@ -50,10 +51,10 @@ fn events_are_the_contacts_crossing_the_edges() {
     for (e, w) in ev.iter().zip(&want) {
         assert!((e - w).abs() < 1e-9, "{ev:?} vs {want:?}");
     }
-    // Along a heading the crossings stretch by 1 / cos.
+    // Driving at an angle to the body's axis the crossings stretch by 1 / cos.
     let h = 0.3_f64;
     let ev = support_events(&lone(-0.05), &p, &t, h, 0.2);
-    let first = (0.05 - c * h.cos()) / h.cos();
+    let first = (0.05 - c) / h.cos();
     assert!((ev[0] - first).abs() < 1e-9, "{ev:?}");
     // Nothing ahead within the horizon: no events.
     assert!(support_events(&lone(-0.5), &p, &t, 0.0, 0.1).is_empty());
@@ -111,7 +112,10 @@ fn casters_stand_clear_by_their_lift() {
     gaps.sort_by(f64::total_cmp);
     assert_eq!(gaps.len(), 4);
     assert_eq!(&gaps[..2], &[0.0, 0.0]);
-    assert!(gaps[2..].iter().all(|g| (g - lift).abs() < 1e-12), "{gaps:?}");
+    assert!(
+        gaps[2..].iter().all(|g| (g - lift).abs() < 1e-12),
+        "{gaps:?}"
+    );
     // A pilot stands on four wheels, none clear.
     let pilot = PuzzleAssembly {
         robots: vec![RobotPose {
