@@ -76,6 +76,11 @@ pub struct Plant {
     pub caster_offset: f32,
     /// Sliding friction coefficient of the ball casters (non-pilots).
     pub caster_friction: f32,
+    /// How far the ball casters stand clear of the ground when the robot rests level on its
+    /// wheels (m, non-pilots): most of the weight stays on the driven wheels, a caster
+    /// carries load only once the body pitches by `caster_lift / caster_offset`. Not in
+    /// THESIS; 0.5 mm.
+    pub caster_lift: f32,
     /// Yaw moment of inertia of the body (kg·m²): a 50 × 50 mm box of the robot's mass.
     pub yaw_inertia: f32,
     /// Highest step up the robot can drive onto (m); higher edges block it like a wall.
@@ -111,6 +116,7 @@ impl Plant {
             wheel_load_fraction: if pilot { 1.0 } else { 0.8 },
             caster_offset: 0.018,
             caster_friction: 0.05,
+            caster_lift: 0.0005,
             yaw_inertia: if pilot { 4.3e-5 } else { 4.6e-5 },
             // Pilots climb onto platforms (THESIS 3.4); casters do not.
             max_climb: if pilot { 0.006 } else { 0.002 },

@@ -99,9 +99,12 @@ pub fn build(
     if !p.plant.four_wheels {
         let rc = cfg.caster_radius;
         let c = f64::from(p.plant.caster_offset);
+        // The casters stand `plant.caster_lift` clear of the ground (the gate's contact model
+        // reads the same parameter).
+        let lift = f64::from(p.plant.caster_lift);
         for x in [c, -c] {
             let col = ColliderBuilder::ball(rc)
-                .translation(vector![x, 0.0, rc + cfg.caster_lift])
+                .translation(vector![x, 0.0, rc + lift])
                 .density(0.0)
                 .friction(f64::from(p.plant.caster_friction))
                 .friction_combine_rule(CoefficientCombineRule::Min)

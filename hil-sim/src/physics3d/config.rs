@@ -17,10 +17,6 @@ pub struct Config3d {
     pub wheel_mass: f64,
     /// Radius of a non-pilot's ball casters (m). Not in THESIS; 4 mm (Fig 5.3 A).
     pub caster_radius: f64,
-    /// How far the casters stand clear of the ground when the robot rests level on its wheels
-    /// (m): most of the weight stays on the driven wheels (`plant.wheel_load_fraction`), the
-    /// casters catch the body when it pitches. Not in THESIS; 0.5 mm.
-    pub caster_lift: f64,
     /// Height of the chassis underside above the ground (m). Not in THESIS; 5 mm.
     pub chassis_clearance: f64,
     /// Friction coefficient of the printed chassis on a platform. Not in THESIS; 0.3.
@@ -59,7 +55,6 @@ impl Default for Config3d {
             solver_iterations: 4,
             wheel_mass: 0.01,
             caster_radius: 0.004,
-            caster_lift: 0.0005,
             chassis_clearance: 0.005,
             chassis_friction: 0.3,
             knob_play: 0.001,
@@ -92,7 +87,6 @@ impl Config3d {
         }
         let nonneg = [
             ("chassis_clearance", self.chassis_clearance),
-            ("caster_lift", self.caster_lift),
             ("chassis_friction", self.chassis_friction),
             ("knob_play", self.knob_play),
             ("anchor_damping", self.anchor_damping),

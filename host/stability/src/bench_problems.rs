@@ -123,6 +123,7 @@ fn on_ground(
                 normal: None,
                 mu: [mu, mu],
                 x_axis: None,
+                gap: 0.0,
             });
         }
     }

@@ -13,8 +13,8 @@
 
 use crate::gate::evaluate;
 use crate::puzzlebot::{
-    assembly_level, build_model_with, max_safe_advance_with, AdapterError, Advance, AdvanceOptions,
-    LimitedBy, Pair, PairKind, PuzzleAssembly, RobotPose,
+    assembly_level, build_model_with, max_safe_advance_with, support_events, AdapterError, Advance,
+    AdvanceOptions, LimitedBy, Pair, PairKind, PuzzleAssembly, RobotPose, EVENT_EPS,
 };
 use puzzlebot_params::formation::{self, Link, Shape};
 use puzzlebot_params::terrain::Terrain;
@@ -455,7 +455,7 @@ fn candidate(
 }
 
 /// Smallest internal stability margin at samples every `opt.step` along `distance` of
-/// advance.
+/// advance and just after every support event ([`support_events`]).
 fn sampled_margin(
     a: &PuzzleAssembly,
     params: &FleetParams,
@@ -471,9 +471,17 @@ fn sampled_margin(
     };
     let (s, c) = heading.sin_cos();
     let n = (distance / step).ceil() as usize;
+    // Every `step`, and just after every change of the support (where the loads jump).
+    let mut at: Vec<f64> = (0..=n).map(|k| (k as f64 * step).min(distance)).collect();
+    at.extend(
+        support_events(a, params, terrain, heading, distance)
+            .into_iter()
+            .map(|e| e + EVENT_EPS)
+            .filter(|&d| d < distance),
+    );
+    at.sort_by(f64::total_cmp);
     let mut worst: Option<f64> = None;
-    for k in 0..=n {
-        let d = (k as f64 * step).min(distance);
+    for d in at {
         let m = build_model_with(a, params, terrain, level, [c * d, s * d], &model_opt)?;
         if let Some(margin) = evaluate(&m)?.margin {
             worst = Some(worst.map_or(margin, |w: f64| w.min(margin)));

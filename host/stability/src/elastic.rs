@@ -196,6 +196,7 @@ mod tests {
                         normal: None,
                         mu: [0.5, 0.5],
                         x_axis: None,
+                        gap: 0.0,
                     }
                 })
             })

@@ -21,6 +21,7 @@ pub mod blockchol;
 pub mod crossing;
 pub mod dual;
 pub mod elastic;
+pub mod events;
 pub mod gate;
 pub mod io;
 pub mod ipm;

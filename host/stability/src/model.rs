@@ -168,6 +168,12 @@ pub struct Contact {
     /// Hint for the local x axis of the contact frame.
     #[serde(default)]
     pub x_axis: Option<Vec3>,
+    /// How far the contact stands clear of its support in the unloaded assembly (m; default
+    /// 0): a lifted caster, a wheel over a lower platform. The rigid-body proof lets it touch;
+    /// the elastic distribution ([`crate::elastic::distribution_with_gaps`]) loads it only
+    /// once the deflection has closed the gap.
+    #[serde(default)]
+    pub gap: f64,
 }
 
 /// A non-connected contact between two modules (SOCP 23, 32).

@@ -6,12 +6,15 @@
 //! - non-pilot robots rest on 2 wheels at (`plant.wheel_axle_offset`, ±L/2) and 2 frictionless
 //!   ball casters at (±`plant.caster_offset`, 0); pilots on 4 wheels at
 //!   (±`plant.wheel_axle_offset`, ±L/2) (body frame, L = wheel base), as the 3-D physics;
-//!   wheels hold friction in both directions (geared motors are not back-drivable);
+//!   wheels hold friction in both directions (geared motors are not back-drivable); the
+//!   casters stand `plant.caster_lift` clear of the ground, a gap the elastic distribution
+//!   must close before they carry;
 //! - a contact touches when the platform under it is at the assembly's level (±1 mm);
 //! - connections sit at the centre-of-mass height; the frame has x up, z horizontal into the
 //!   child; moment limits are the hold force times a lever of half the body height;
 //!   the anchor is free in yaw (THESIS 4.2.2: ±0.5 rad), so its yaw couple is released.
 
+pub use crate::events::support_events;
 use crate::gate::{evaluate, Verdict};
 use crate::model::{
     Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
@@ -196,7 +199,7 @@ pub fn contact_points(kind: RobotKind, params: &FleetParams) -> Vec<([f64; 2], b
     out
 }
 
-fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
+pub(crate) fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
     let (s, c) = p.yaw.sin_cos();
     [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]]
 }
@@ -325,12 +328,20 @@ pub fn build_model_with(
             if let Touch::On(mu, h) = touch {
                 let w = world(&moved, *b);
                 let m = if *wheel { *mu } else { 0.0 };
+                // Clear of its support by the drop to a lower platform, and a caster by its
+                // lift.
+                let lift = if *wheel {
+                    0.0
+                } else {
+                    f64::from(p.plant.caster_lift)
+                };
                 contacts.push(Contact {
                     module: format!("r{i}"),
                     point: [w[0], w[1], *h],
                     normal: None,
                     mu: [m, m],
                     x_axis: Some([r.yaw.cos(), r.yaw.sin(), 0.0]),
+                    gap: (level - h).max(0.0) + lift.max(0.0),
                 });
             }
         }
@@ -493,17 +504,8 @@ fn elastic_limit(m: &Assembly, params: &FleetParams) -> Result<Option<LimitedBy>
     let r = m.resolve()?;
     let c = &params.non_pilot.coupling;
     let force = 1.0 / f64::from(c.connector_stiffness);
-    // A contact over a lower platform stands clear of it by the drop.
-    let gaps: Vec<f64> = m
-        .contacts
-        .iter()
-        .map(|k| {
-            m.modules
-                .iter()
-                .find(|md| md.id == k.module)
-                .map_or(0.0, |md| (md.position[2] - k.point[2]).max(0.0))
-        })
-        .collect();
+    // A contact over a lower platform stands clear of it by the drop, a caster by its lift.
+    let gaps: Vec<f64> = m.contacts.iter().map(|k| k.gap.max(0.0)).collect();
     let mut over = vec![false; r.connections.len()];
     for support in [0.0, SOFT_SUPPORTS * force] {
         let compliance = crate::elastic::Compliance {
@@ -547,11 +549,17 @@ pub fn max_safe_advance(
     )
 }
 
+/// How far past a support event the gate judges the state it leads to (m): well inside the
+/// contact's new side of the edge, far below any distance the answer is read to.
+pub const EVENT_EPS: f64 = 1e-6;
+
 /// [`max_safe_advance`] with options.
 ///
-/// A rigid translation changes the model only when a contact leaves or reaches a platform, so
-/// the scan steps by `step` through contact states, locates each change by bisection (to
-/// 1 µm), and runs the gate once per new contact state.
+/// A rigid translation changes the model only when a contact leaves or reaches a platform
+/// ([`support_events`]), so the gate judges the start and the state just after every such
+/// event (the state just before one is the one judged after the event before). `step` bounds
+/// the distance between checks as well, so the scan also covers a terrain whose edges the
+/// contacts pass without crossing.
 pub fn max_safe_advance_with(
     assembly: &PuzzleAssembly,
     params: &FleetParams,
@@ -594,33 +602,48 @@ pub fn max_safe_advance_with(
             limited_by: why,
         });
     }
-    let mut d = 0.0;
-    while d < opt.horizon {
-        let next = (d + step).min(opt.horizon);
-        let st = state(next);
+    // Just after every support event, and every `step` (a change found there is located by
+    // bisection to 1 µm).
+    let mut checks: Vec<(f64, bool)> =
+        support_events(assembly, params, terrain, heading, opt.horizon)
+            .into_iter()
+            .map(|e| (e + EVENT_EPS, true))
+            .filter(|&(d, _)| d < opt.horizon)
+            .collect();
+    let n = (opt.horizon / step).ceil() as usize;
+    checks.extend((1..=n).map(|k| ((k as f64 * step).min(opt.horizon), false)));
+    checks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut last = 0.0;
+    for (d, event) in checks {
+        let mut st = state(d);
         if st == cur {
-            d = next;
+            last = d;
             continue;
         }
-        // Locate the first change in (d, next].
-        let (mut lo, mut hi) = (d, next);
-        while hi - lo > 1e-6 {
-            let mid = 0.5 * (lo + hi);
-            if state(mid) == cur {
-                lo = mid;
-            } else {
-                hi = mid;
+        let (mut lo, mut hi) = if event {
+            ((d - 2.0 * EVENT_EPS).max(last), d)
+        } else {
+            (last, d)
+        };
+        if !event {
+            while hi - lo > 1e-6 {
+                let mid = 0.5 * (lo + hi);
+                if state(mid) == cur {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
             }
+            st = state(hi);
         }
-        let st_hi = state(hi);
-        if let Some(why) = judge(hi, &st_hi)? {
+        if let Some(why) = judge(hi, &st)? {
             return Ok(Advance {
                 distance: lo,
                 limited_by: why,
             });
         }
-        cur = st_hi;
-        d = hi;
+        cur = st;
+        last = hi;
     }
     Ok(Advance {
         distance: opt.horizon,

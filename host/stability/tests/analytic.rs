@@ -25,6 +25,7 @@ fn contact(m: &str, p: Vec3, mu: f64) -> Contact {
         normal: None,
         mu: [mu, mu],
         x_axis: None,
+        gap: 0.0,
     }
 }
 
