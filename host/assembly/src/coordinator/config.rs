@@ -181,6 +181,47 @@ pub struct CoordinatorConfig {
     /// Room to spare between two robot bodies that pass or stand beside each other (m),
     /// added to their sizes ([`Coordinator::room`]).
     pub spare: f64,
+    /// Gain pulling a hitched train member's connection point onto its neighbour's (1/s).
+    pub hitch_gain: f64,
+    /// Largest turn rate commanded to a hitched non-pilot train member (rad/s).
+    pub hitch_max_turn: f64,
+    /// Taking assemblies apart.
+    pub decouple: DecoupleConfig,
+}
+
+/// Taking assemblies apart: released pairs driving clear, unplanned knobs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DecoupleConfig {
+    /// Speed of a released pair's robot driving clear (m/s).
+    pub clear_speed: f64,
+    /// A released anchor pair drives apart until the head is this far out of the opening
+    /// (m): held where it popped, a wiggling neighbour can push it back in while the rest
+    /// of the train wiggles.
+    pub clear: f64,
+    /// A released anchor pair whose head is still not [`DecoupleConfig::clear`] out after
+    /// this many times the time its robot needs to drive that far (plus the anchor's
+    /// travel) at [`DecoupleConfig::clear_speed`] is still held: its legs did not pop
+    /// although the measured yaw left the anchor's range for a moment, and driving straight
+    /// on drags the partner along.
+    pub clear_time_factor: f64,
+    /// How far two knob-coupled robots may stand from their planned relative place (m) for
+    /// the knob to count as planned: under half the 25 mm between a side's holes.
+    pub knob_place_tolerance: f64,
+    /// A person is asked again to lift an unplanned knob pair after this long (s).
+    pub knob_lift_repeat_s: f64,
+}
+
+impl Default for DecoupleConfig {
+    fn default() -> Self {
+        DecoupleConfig {
+            clear_speed: 0.02,
+            clear: 0.015,
+            clear_time_factor: 3.0,
+            knob_place_tolerance: 0.008,
+            knob_lift_repeat_s: 10.0,
+        }
+    }
 }
 
 impl Default for CoordinatorConfig {
@@ -199,6 +240,9 @@ impl Default for CoordinatorConfig {
             turn_radius: puzzlebot_params::drive::Drive::for_kind(RobotKind::NonPilot)
                 .min_turn_radius(),
             spare: 0.005,
+            hitch_gain: 1.0,
+            hitch_max_turn: 1.5,
+            decouple: DecoupleConfig::default(),
         }
     }
 }

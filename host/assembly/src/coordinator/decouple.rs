@@ -22,28 +22,6 @@ pub(super) struct Wiggler {
     pub(super) puller: Option<RobotId>,
 }
 
-/// Speed of a released pair's robot driving clear (m/s): above the wheels' 20 RPM
-/// dead-band.
-const CLEAR_SPEED: f64 = 0.02;
-
-/// How far two knob-coupled robots may stand from their planned relative place (m) for the
-/// knob to count as planned: under half the 25 mm between a side's holes.
-const KNOB_PLACE_TOLERANCE: f64 = 0.008;
-
-/// A person is asked again to lift an unplanned knob pair after this long (s).
-const KNOB_LIFT_REPEAT_S: f64 = 10.0;
-
-/// A released anchor pair drives apart until the head is this far out of the opening (m):
-/// held where it popped, a wiggling neighbour can push it back in while the rest of the
-/// train wiggles.
-pub const DECOUPLE_CLEAR: f64 = 0.015;
-
-/// A released anchor pair whose head is still not [`DECOUPLE_CLEAR`] out after this many
-/// times the time its robot needs to drive that far (plus the anchor's travel) at
-/// [`CLEAR_SPEED`] is still held: its legs did not pop although the measured yaw left the
-/// anchor's range for a moment, and driving straight on drags the partner along.
-const CLEAR_TIME_FACTOR: f64 = 3.0;
-
 /// Release bookkeeping of a decouple behaviour ([`Coordinator::update_released`]).
 #[derive(Debug, Clone, Default)]
 pub(super) struct ReleaseWatch {
@@ -180,9 +158,10 @@ impl Coordinator {
         let Mode::Decouple { pairs, .. } = &self.mode else {
             return;
         };
-        let deadline = CLEAR_TIME_FACTOR
-            * (DECOUPLE_CLEAR + f64::from(self.cfg.tolerances.coupling.anchor_travel))
-            / CLEAR_SPEED;
+        let dc = self.cfg.decouple;
+        let deadline = dc.clear_time_factor
+            * (dc.clear + f64::from(self.cfg.tolerances.coupling.anchor_travel))
+            / dc.clear_speed;
         let mut done = Vec::new();
         let mut again = Vec::new();
         for &i in pairs {
@@ -229,7 +208,7 @@ impl Coordinator {
     /// Every pair of the decouple behaviour is apart: a knob pair measured decoupled, an
     /// anchor pair released with its head clear. An anchor still held at the end of its
     /// travel stands only millimetres further out than a seated one, which the poses do not
-    /// tell from a head just out of the opening; [`DECOUPLE_CLEAR`] is beyond the travel, so
+    /// tell from a head just out of the opening; [`DecoupleConfig::clear`] is beyond the travel, so
     /// a clear head cannot be a held one (the robots disperse otherwise dragging their
     /// partner along).
     pub fn decouple_done(&self) -> bool {
@@ -246,7 +225,7 @@ impl Coordinator {
         })
     }
 
-    /// Robot `anchor`'s anchor head is [`DECOUPLE_CLEAR`] out of robot `opening`'s front,
+    /// Robot `anchor`'s anchor head is [`DecoupleConfig::clear`] out of robot `opening`'s front,
     /// beside its body, or behind its centre (a held head sits in the opening within the
     /// anchor's travel of the front face: one behind the centre has gone round the side), or
     /// either pose is unknown.
@@ -257,7 +236,7 @@ impl Coordinator {
         let g = &self.geometry;
         let h = [f64::from(g.anchor_head[0]), f64::from(g.anchor_head[1])];
         let head = b.inverse_transform(a.transform(h));
-        head[0] > f64::from(g.length) * 0.5 + DECOUPLE_CLEAR
+        head[0] > f64::from(g.length) * 0.5 + self.cfg.decouple.clear
             || head[0] < 0.0
             || head[1].abs() > f64::from(g.width) * 0.5
     }
@@ -296,7 +275,7 @@ impl Coordinator {
     /// Speed of a released robot driving clear, and of a pilot pulling its anchor out of a
     /// wiggling robot's opening ([`Wiggler::puller`]).
     pub(super) fn pull_speed(&self, w: &Wiggler) -> f64 {
-        w.wiggle.v_bias.max(CLEAR_SPEED)
+        w.wiggle.v_bias.max(self.cfg.decouple.clear_speed)
     }
 
     /// (v, ω) of a wiggling robot at time `t`.
@@ -318,7 +297,7 @@ impl Coordinator {
     /// robot and stand rigidly locked there): a knob holds more than
     /// the robots can pull (THESIS 5.5.3), so a person is asked to lift it
     /// ([`EventKind::LiftKnobs`]; in simulation the simulator's hand does it), at most every
-    /// [`KNOB_LIFT_REPEAT_S`] per pair. Knobs between planned neighbours at their places in
+    /// [`DecoupleConfig::knob_lift_repeat_s`] per pair. Knobs between planned neighbours at their places in
     /// the shape (a mesh's extra clicks, re-targeted side pairs) are left in.
     fn watch_unplanned_knobs(&mut self, t: f64, ids: &[RobotId]) {
         let Some(plan) = &self.plan else {
@@ -350,7 +329,8 @@ impl Coordinator {
                     (Some(ga), Some(gb)) => {
                         let want = gb.inverse().compose(&ga);
                         let have = pb.inverse().compose(&pa);
-                        (want.x - have.x).hypot(want.y - have.y) < KNOB_PLACE_TOLERANCE
+                        (want.x - have.x).hypot(want.y - have.y)
+                            < self.cfg.decouple.knob_place_tolerance
                             && wrap_angle(want.yaw - have.yaw).abs() < 0.1
                     }
                     _ => false,
@@ -358,7 +338,7 @@ impl Coordinator {
                 let asked = self
                     .knob_lifts
                     .get(&(a, b))
-                    .is_some_and(|&t0| t - t0 < KNOB_LIFT_REPEAT_S);
+                    .is_some_and(|&t0| t - t0 < self.cfg.decouple.knob_lift_repeat_s);
                 if !planned && !asked {
                     lift.push((a, b));
                 }

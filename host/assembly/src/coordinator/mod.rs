@@ -34,7 +34,7 @@ mod train;
 mod tug;
 
 use approach::Manoeuvre;
-pub use config::{CoordinatorConfig, DockConfig};
+pub use config::{CoordinatorConfig, DecoupleConfig, DockConfig};
 use decouple::ReleaseWatch;
 pub use events::{Event, EventKind};
 pub use mode::Mode;

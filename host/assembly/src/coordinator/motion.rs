@@ -234,12 +234,6 @@ impl Coordinator {
     }
 }
 
-/// Gain pulling a hitched train member's connection point onto its neighbour's (1/s).
-const HITCH_GAIN: f64 = 1.0;
-
-/// Largest turn rate commanded to a hitched train member (rad/s).
-const HITCH_MAX_TURN: f64 = 1.5;
-
 /// World velocity of the body point `p` of a robot at `pose` driving at (v, ω) (unicycle
 /// (2.1) plus ω × p).
 fn point_velocity(pose: &Pose2, twist: [f64; 2], p: [f64; 2]) -> [f64; 2] {
@@ -264,7 +258,7 @@ impl Coordinator {
     /// naming each member's pair and neighbour towards the leader (a tractor and its
     /// trailers). Each drives its connection point with the velocity of its neighbour's (the
     /// leader's from the reference, every other's from its own command) plus
-    /// [`HITCH_GAIN`] times the gap between the two, and its heading follows by itself as a
+    /// [`CoordinatorConfig::hitch_gain`] times the gap between the two, and its heading follows by itself as a
     /// trailer's does behind its hitch. That is stable only while the hitch leads the
     /// member's axle in the direction of travel: a member pushed backwards, a pilot
     /// (straight only) and everything hanging behind them get no command here (they keep
@@ -318,14 +312,14 @@ impl Coordinator {
                 let [hx, hy] = pn.transform(theirs);
                 let [ox, oy] = pm.transform(own);
                 let u = [
-                    ff[0] + HITCH_GAIN * (hx - ox),
-                    ff[1] + HITCH_GAIN * (hy - oy),
+                    ff[0] + self.cfg.hitch_gain * (hx - ox),
+                    ff[1] + self.cfg.hitch_gain * (hy - oy),
                 ];
                 let [v, w] = drive_point(&pm, own, u);
                 // A pilot turns no tighter than its smallest radius (THESIS 3.5.1, 5.4.1).
                 let max_turn = match self.kind_of(m) {
                     RobotKind::Pilot => v.abs() / self.cfg.pilot_turn_radius.max(1e-6),
-                    RobotKind::NonPilot => HITCH_MAX_TURN,
+                    RobotKind::NonPilot => self.cfg.hitch_max_turn,
                 };
                 let w = w.clamp(-max_turn, max_turn);
                 twist.insert(m, [v, w]);
