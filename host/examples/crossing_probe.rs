@@ -8,11 +8,9 @@
 //! the gate's supports k times softer than the connectors (0: rigid); `SETTLE=1` stops the
 //! drive there and traces the assembly standing.
 
-use puzzlebot_host::crossing::drive3d::{self, CrossSettings};
-use puzzlebot_host::crossing::formed::Formed;
-use puzzlebot_host::experiment::crossing::{configs, predict, Obstacle};
-use puzzlebot_params::formation::{self, Shape};
-use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_host::crossing::drive3d;
+use puzzlebot_host::experiment::crossing::{configs, predict, set_down, settings, Obstacle};
+use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::World3d;
 use puzzlebot_stability::crossing::formed;
 use puzzlebot_stability::elastic;
@@ -45,40 +43,10 @@ fn main() {
         cand.required * 1e3,
         cand.start
     );
-    let shape = match shape_name.split_whitespace().collect::<Vec<_>>()[..] {
-        ["line", n] => Shape::Line(n.parse().expect("n")),
-        ["mesh", rc] => {
-            let (r, c) = rc.split_once('x').expect("RxC");
-            Shape::Mesh {
-                rows: r.parse().expect("rows"),
-                per_row: c.parse().expect("per_row"),
-            }
-        }
-        _ => panic!("shape"),
-    };
-    let links = formation::layout(shape, &params.non_pilot.geometry).1;
-    let n = shape.count();
-    let formed_asm = Formed {
-        shape,
-        ids: (1..=n as u16).collect(),
-        kinds: (0..n)
-            .map(|k| {
-                if cfg.pilot_places.contains(&k) {
-                    RobotKind::Pilot
-                } else {
-                    RobotKind::NonPilot
-                }
-            })
-            .collect(),
-        links: links.clone(),
-        fit_error: 0.0,
-    };
+    let formed_asm = set_down(cfg, &params).expect("a shape");
+    let (shape, n) = (formed_asm.shape, formed_asm.ids.len());
     let terrain = obstacle.terrain();
-    let settings = CrossSettings {
-        live_gate: false,
-        stop_on_failure: false,
-        ..CrossSettings::default()
-    };
+    let settings = settings();
     let s = drive3d::scenario(&formed_asm, &cand, &terrain, &params, 1);
     let mut w = World3d::new(&s, settings.world).expect("world");
     w.run_for((settings.settle_s * 1e6) as u64);

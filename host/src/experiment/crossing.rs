@@ -343,7 +343,9 @@ pub fn predict(
 }
 
 /// How the experiment drives: every run to its end, the gate's side predicted beforehand.
-fn settings() -> CrossSettings {
+/// Settings of the experiment's physics runs: the gate is not consulted live and a run goes
+/// on after a failure (the physics' verdict is what is measured).
+pub fn settings() -> CrossSettings {
     CrossSettings {
         live_gate: false,
         stop_on_failure: false,
@@ -351,20 +353,13 @@ fn settings() -> CrossSettings {
     }
 }
 
-/// Run one case: the gate's prediction once, then `runs` jittered physics runs.
-fn run_case(
-    case: &Case,
-    cfg: &Config,
-    runs: usize,
-    seed: u64,
-    params: &FleetParams,
-) -> Result<Vec<CrossRun>, String> {
+/// The assembly of configuration `cfg` as the lab sets it down before a crossing: its
+/// shape's layout, robots 1…n, pilots at the configuration's places.
+pub fn set_down(cfg: &Config, params: &FleetParams) -> Result<Formed, String> {
     let shape = cfg.shape_value.ok_or("configuration without a shape")?;
     let links = formation::layout(shape, &params.non_pilot.geometry).1;
-    let terrain = case.obstacle.terrain();
-    let (cand, rigid) = predict(cfg, case.obstacle, case.heading_deg, params)?;
     let n = shape.count();
-    let formed_asm = Formed {
+    Ok(Formed {
         shape,
         ids: (1..=n as u16).collect(),
         kinds: (0..n)
@@ -378,7 +373,21 @@ fn run_case(
             .collect(),
         links,
         fit_error: 0.0,
-    };
+    })
+}
+
+/// Run one case: the gate's prediction once, then `runs` jittered physics runs.
+fn run_case(
+    case: &Case,
+    cfg: &Config,
+    runs: usize,
+    seed: u64,
+    params: &FleetParams,
+) -> Result<Vec<CrossRun>, String> {
+    let formed_asm = set_down(cfg, params)?;
+    let n = formed_asm.ids.len();
+    let terrain = case.obstacle.terrain();
+    let (cand, rigid) = predict(cfg, case.obstacle, case.heading_deg, params)?;
     let settings = settings();
     let mut out = Vec::with_capacity(runs);
     for run in 0..runs {

@@ -23,6 +23,18 @@ fn np(x: f64, y: f64) -> RobotPose {
 }
 
 /// Platform ending at x = `edge`, nothing beyond (a wide gap).
+/// Robots 0…n−1 joined in a line, each robot's anchor in the next one's opening.
+fn anchor_chain(n: usize) -> Vec<Pair> {
+    (0..n.saturating_sub(1))
+        .map(|i| Pair {
+            a: i,
+            b: i + 1,
+            kind: PairKind::Anchor,
+            point: None,
+        })
+        .collect()
+}
+
 fn cliff(edge: f64) -> Terrain {
     Terrain {
         platforms: vec![Platform::rect("near", [-2.0, -1.0], [edge, 1.0], 0.0)],
@@ -178,14 +190,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
     // robots hang from the anchors, which hold ≈ 4.9 N but only a small bending couple.
     let p = params();
     let robots: Vec<RobotPose> = (0..6).map(|i| np(-0.057 * i as f64, 0.0)).collect();
-    let pairs = (0..5)
-        .map(|i| Pair {
-            a: i,
-            b: i + 1,
-            kind: PairKind::Anchor,
-            point: None,
-        })
-        .collect();
+    let pairs = anchor_chain(6);
     let a = PuzzleAssembly { robots, pairs };
     let measured = max_safe_advance(&a, &p, &cliff(0.1), 0.0, 0.01).unwrap();
     let rigid = max_safe_advance_with(
@@ -322,14 +327,7 @@ fn a_front_pilot_tips_when_its_front_wheels_leave_unless_the_anchor_holds_a_pull
     let pitch = puzzlebot_params::formation::anchor_pitch(&p.non_pilot.geometry);
     let mut robots = vec![pilot];
     robots.extend((1..4).map(|i| np(-pitch * f64::from(i), 0.0)));
-    let pairs = (0..3)
-        .map(|i| Pair {
-            a: i,
-            b: i + 1,
-            kind: PairKind::Anchor,
-            point: None,
-        })
-        .collect();
+    let pairs = anchor_chain(4);
     let a = PuzzleAssembly { robots, pairs };
     let edge = 0.05;
     let front_wheels = contact_points(RobotKind::Pilot, &p)
