@@ -72,8 +72,7 @@ pub struct DockConfig {
     pub in_yaw: f64,
     /// Slowest turn on the spot (rad/s): both wheels above the dead-band.
     pub min_turn: f64,
-    /// Fastest turn on the spot (rad/s): below the butterfly's corner A (2.19 rad/s), so
-    /// the turn stays a few ticks long and stops within its tolerance.
+    /// Fastest turn on the spot (rad/s): below the butterfly's corner A (2.19 rad/s).
     pub max_turn: f64,
     /// Step of the search for a clear stand-off along an anchor approach's axis (m).
     pub standoff_step: f64,

@@ -23,16 +23,14 @@ pub(super) struct Room {
 impl Coordinator {
     /// The room kept between robots ([`Room`]).
     pub(super) fn room(&self) -> Room {
-        let (l, w) = (
-            f64::from(self.geometry.length),
-            f64::from(self.geometry.width),
-        );
+        let [hx, hy] = self.geometry.half_extents();
+        let (hx, hy) = (f64::from(hx), f64::from(hy));
         let spare = self.cfg.spare;
         Room {
-            route_clearance: 2.0 * (0.5 * l).hypot(0.5 * w) + spare,
-            approach_gap: w,
-            make_way_margin: 0.5 * w + spare,
-            lane_block_half_width: w + spare,
+            route_clearance: 2.0 * hx.hypot(hy) + spare,
+            approach_gap: 2.0 * hy,
+            make_way_margin: hy + spare,
+            lane_block_half_width: 2.0 * hy + spare,
         }
     }
 
