@@ -120,7 +120,8 @@ pub struct Lockstep {
     options: LoopOptions,
     command_period_us: u64,
     offline_us: u64,
-    /// Latest motion-capture pose of each robot (capture time µs, pose); `None` = exact.
+    /// Latest tracked motion-capture pose of each robot (capture time µs, pose): a frame
+    /// that lost the body leaves it, as [`crate::pose::PoseTable`] does; `None` = exact.
     mocap: Option<BTreeMap<RobotId, (u64, BodyPose)>>,
     /// A pose older than this is stale and its robot is stopped (µs; `pose_stale_after_ms`).
     stale_us: u64,
@@ -223,7 +224,7 @@ impl Lockstep {
             None => Some((now_us, truth.pose.x, truth.pose.y, truth.pose.yaw)),
             Some(latest) => latest
                 .get(&truth.id)
-                .filter(|(at, b)| b.tracked && now_us.saturating_sub(*at) <= self.stale_us)
+                .filter(|(at, _)| now_us.saturating_sub(*at) <= self.stale_us)
                 .map(|(at, b)| (*at, f64::from(b.x), f64::from(b.y), f64::from(b.yaw))),
         }
     }
@@ -232,7 +233,7 @@ impl Lockstep {
         let frames = self.world.take_mocap();
         if let Some(latest) = &mut self.mocap {
             for f in frames {
-                for b in f.bodies {
+                for b in f.bodies.into_iter().filter(|b| b.tracked) {
                     latest.insert(b.robot_id, (f.time_us, b));
                 }
             }
@@ -354,7 +355,8 @@ impl Lockstep {
                         cmds = c;
                     }
                 }
-                // An untracked robot gets no command this period (its firmware holds the
+                // A robot without a fresh pose (none tracked within the stale limit) gets no
+                // command this period (its firmware holds the
                 // last one until its failsafe timeout).
                 let mut sent = Vec::with_capacity(view.robots.len());
                 for rv in view.robots.iter().filter(|rv| rv.pose.is_some()) {

@@ -144,7 +144,6 @@ impl PoseDecoder for NatNetDecoder {
 #[derive(Debug, Clone, Copy)]
 struct Entry {
     sample: PoseSample,
-    tracked: bool,
     at: Instant,
 }
 
@@ -157,7 +156,12 @@ pub struct PoseTable {
 
 #[derive(Debug, Default)]
 struct PoseTableInner {
+    /// The latest observation of each body, tracked or not.
     latest: BTreeMap<RobotId, Entry>,
+    /// The latest tracked observation of each body: a frame that lost the body does not
+    /// erase it, so one dropped frame is not a lost pose (a pose is lost when this one is
+    /// older than the stale limit).
+    tracked: BTreeMap<RobotId, Entry>,
     datagrams: u64,
     errors: u64,
     last_error: Option<String>,
@@ -193,19 +197,19 @@ impl PoseTable {
         let mut g = self.lock();
         g.datagrams += 1;
         for o in obs {
-            g.latest.insert(
-                o.robot,
-                Entry {
-                    sample: PoseSample {
-                        t,
-                        x: o.x,
-                        y: o.y,
-                        theta: o.theta,
-                    },
-                    tracked: o.tracked,
-                    at,
+            let e = Entry {
+                sample: PoseSample {
+                    t,
+                    x: o.x,
+                    y: o.y,
+                    theta: o.theta,
                 },
-            );
+                at,
+            };
+            g.latest.insert(o.robot, e);
+            if o.tracked {
+                g.tracked.insert(o.robot, e);
+            }
         }
     }
 
@@ -215,13 +219,14 @@ impl PoseTable {
         g.last_error = Some(e);
     }
 
-    /// The pose of `robot` if it is tracked and at most `max_age` old.
+    /// The latest tracked pose of `robot` if it is at most `max_age` old (frames that lost
+    /// the body in between do not count: the capture drops single frames).
     pub fn fresh(&self, robot: RobotId, max_age: std::time::Duration) -> Option<PoseSample> {
         let now = Instant::now();
         let g = self.lock();
-        g.latest
+        g.tracked
             .get(&robot)
-            .filter(|e| e.tracked && now.duration_since(e.at) <= max_age)
+            .filter(|e| now.duration_since(e.at) <= max_age)
             .map(|e| e.sample)
     }
 
@@ -232,11 +237,7 @@ impl PoseTable {
 
     /// The latest pose of `robot` if it is tracked, however old.
     pub fn latest_tracked(&self, robot: RobotId) -> Option<PoseSample> {
-        self.lock()
-            .latest
-            .get(&robot)
-            .filter(|e| e.tracked)
-            .map(|e| e.sample)
+        self.lock().tracked.get(&robot).map(|e| e.sample)
     }
 
     /// How long ago the latest pose of `robot` arrived.
@@ -365,7 +366,33 @@ mod tests {
         assert!((p.x - 0.5).abs() < 1e-6 && (p.theta - 1.0).abs() < 1e-6);
         assert!(
             input.table.fresh(5, ms(500)).is_none(),
-            "untracked reads as missing"
+            "never tracked reads as missing"
+        );
+        // A frame that lost robot 4 leaves its last tracked pose: one dropped frame is not
+        // a lost pose.
+        let lost = [BodyPose {
+            x: 0.9,
+            tracked: false,
+            ..bodies[0]
+        }];
+        let n = encode_poses(2, 2, &lost, &mut buf);
+        tx.send_to(&buf[..n], input.local_addr())
+            .await
+            .expect("send");
+        for _ in 0..200 {
+            if input
+                .table
+                .latest(4)
+                .is_some_and(|p| (p.x - 0.9).abs() < 1e-6)
+            {
+                break;
+            }
+            tokio::time::sleep(ms(2)).await;
+        }
+        let p = input.table.fresh(4, ms(500)).expect("still fresh");
+        assert!(
+            (p.x - 0.5).abs() < 1e-6,
+            "the tracked pose, not the lost frame's"
         );
         assert!(input.table.fresh(6, ms(500)).is_none(), "never seen");
         assert_eq!(input.table.stats().errors, 1);
