@@ -356,8 +356,8 @@ impl Lockstep {
                     }
                 }
                 // A robot without a fresh pose (none tracked within the stale limit) gets no
-                // command this period (its firmware holds the
-                // last one until its failsafe timeout).
+                // command this period (its firmware holds the last one until its failsafe
+                // timeout).
                 let mut sent = Vec::with_capacity(view.robots.len());
                 for rv in view.robots.iter().filter(|rv| rv.pose.is_some()) {
                     let msg = match (cmds.get(&rv.id), self.stabilisers.get_mut(&rv.id)) {
