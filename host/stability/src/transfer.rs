@@ -74,7 +74,7 @@ pub fn peak(before: &[[f64; SLOTS]], after: &[[f64; SLOTS]], a: f64) -> Vec<[f64
 
 /// The elastic distributions of a model in both support limits, or why there is none.
 enum Settled {
-    Loads(Resolved, Vec<Vec<[f64; SLOTS]>>),
+    Loads(Box<Resolved>, Vec<Vec<[f64; SLOTS]>>),
     Limited(LimitedBy),
 }
 
@@ -104,7 +104,7 @@ fn settle(m: &Assembly, params: &FleetParams) -> Result<Settled, AdapterError> {
             Err(reason) => return Ok(Settled::Limited(LimitedBy::NotProven { reason })),
         }
     }
-    Ok(Settled::Loads(r, out))
+    Ok(Settled::Loads(Box::new(r), out))
 }
 
 /// The connections whose loads in `w` exceed their limits, as the gate's answer.
