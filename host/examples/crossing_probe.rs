@@ -112,6 +112,44 @@ fn main() {
         );
     }
     println!("{answers}");
+    // The rigid gate's answer without one of its idealisations at a time.
+    let rigid = AdvanceOptions {
+        rigid_couplings: true,
+        ..aopt
+    };
+    let mut answers = String::from("rigid gate:");
+    for (name, opt) in [
+        ("as planned", rigid),
+        (
+            "quasi-static",
+            AdvanceOptions {
+                drive_accel: 0.0,
+                ..rigid
+            },
+        ),
+        (
+            "knob tilt held",
+            AdvanceOptions {
+                knob_tilt_free: false,
+                ..rigid
+            },
+        ),
+        (
+            "anchor pitch held",
+            AdvanceOptions {
+                anchor_pitch_free: false,
+                ..rigid
+            },
+        ),
+    ] {
+        let adv = max_safe_advance_with(&planned, &params, &terrain, h, 0.005, opt).expect("gate");
+        answers += &format!(
+            " {name}: {:.1} mm {:?};",
+            adv.distance * 1e3,
+            adv.limited_by
+        );
+    }
+    println!("{answers}");
     let kinds: Vec<_> = w.couplings().iter().map(|c| (c.0, c.1, c.2)).collect();
     println!("couplings {kinds:?}");
     let mut seen = 0;
