@@ -158,6 +158,7 @@ impl World3d {
             ..IntegrationParameters::default()
         };
         params.dt = cfg.dt;
+        params.contact_softness.natural_frequency = cfg.contact_frequency;
         let mut bodies = RigidBodySet::new();
         let mut colliders = ColliderSet::new();
         let mut joints = ImpulseJointSet::new();

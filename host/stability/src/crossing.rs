@@ -14,7 +14,7 @@
 use crate::gate::evaluate;
 use crate::puzzlebot::{
     assembly_level, build_model_with, max_safe_advance_with, support_events, AdapterError, Advance,
-    AdvanceOptions, LimitedBy, Pair, PairKind, PuzzleAssembly, RobotPose, EVENT_EPS,
+    AdvanceOptions, LimitedBy, LoadTransfer, Pair, PairKind, PuzzleAssembly, RobotPose, EVENT_EPS,
 };
 use puzzlebot_params::formation::{self, Link, Shape};
 use puzzlebot_params::terrain::Terrain;
@@ -39,6 +39,9 @@ pub struct CrossingOptions {
     /// [`AdvanceOptions::drive_accel`]): the crossing speed over the firmware's reference
     /// time constant. 0 (the default): quasi-static; the host sets its drive's.
     pub drive_accel: f64,
+    /// The connectors' response to a sudden change of the support
+    /// ([`AdvanceOptions::transfer`]).
+    pub transfer: LoadTransfer,
 }
 
 impl CrossingOptions {
@@ -52,6 +55,7 @@ impl CrossingOptions {
             elastic: true,
             drive_accel: self.drive_accel,
             max_drop: self.max_drop,
+            transfer: Some(self.transfer),
             horizon: required + 0.01,
         }
     }
@@ -67,6 +71,7 @@ impl Default for CrossingOptions {
             step: 0.005,
             max_drop: 0.006,
             drive_accel: 0.0,
+            transfer: LoadTransfer::default(),
         }
     }
 }

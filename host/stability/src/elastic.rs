@@ -17,8 +17,10 @@
 //! couples). Released components (limit 0) carry nothing, as in the gate.
 //!
 //! Supports that give under load (tyres, the platform, a simulator's soft contacts) add
-//! Σ_contacts c_s · f_n² / 2 with their normal compliance c_s: a loaded robot settles into
-//! them and its connectors bend to follow. Far softer than the connectors, the assembly
+//! Σ_contacts c_s · |f|² / 2 with their compliance c_s, along the normal and the surface
+//! alike: a loaded robot settles into them and its connectors bend to follow, and friction
+//! carries only what that settling calls on it to carry (free friction would pick the forces
+//! that relieve the connectors most). Far softer than the connectors, the assembly
 //! settles as one body and its weight spreads over the supports by how far each sinks; far
 //! stiffer, the rigid-support distribution above holds.
 
@@ -56,6 +58,21 @@ pub fn distribution_with_gaps(
     c: Compliance,
     gaps: &[f64],
 ) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
+    distribution_with_supports(r, c, gaps, &[])
+}
+
+/// [`distribution_with_gaps`] with supports of unequal compliance: environmental contact `k`
+/// (model order) gives `scale[k]` times `c.support` (missing entries 1), as a tyre softer
+/// than a steel caster ball.
+pub fn distribution_with_supports(
+    r: &Resolved,
+    c: Compliance,
+    gaps: &[f64],
+    scale: &[f64],
+) -> Result<Option<Vec<[f64; SLOTS]>>, String> {
+    if scale.iter().any(|s| !(s.is_finite() && *s >= 0.0)) {
+        return Err("support scale: must be finite and ≥ 0".into());
+    }
     if !(c.force.is_finite()
         && c.force > 0.0
         && c.couple.is_finite()
@@ -76,9 +93,28 @@ pub fn distribution_with_gaps(
             }
         }
     }
-    for lay in p.contacts.iter().chain(&p.module_contacts) {
-        if let Some(v) = lay.var[0] {
-            diag[v] = c.support;
+    // A support gives along the surface as it does along the normal (a tyre, a soft
+    // contact): its friction force costs the same work as its normal force, so friction holds
+    // only what the deflections call on it to hold, not whatever relieves the connectors.
+    let mus = r
+        .contacts
+        .iter()
+        .chain(r.module_contacts.iter().map(|(k, _)| k))
+        .map(|k| k.mu);
+    for (k, (lay, mu)) in p
+        .contacts
+        .iter()
+        .chain(&p.module_contacts)
+        .zip(mus)
+        .enumerate()
+    {
+        let cs = c.support * scale.get(k).copied().unwrap_or(1.0);
+        for (slot, var) in lay.var.iter().enumerate() {
+            if let Some(v) = var {
+                // Tangential variables are f_t / μ.
+                let m = if slot == 0 { 1.0 } else { mu[slot - 1] };
+                diag[*v] = cs * m * m;
+            }
         }
     }
     // Scale the energy to the order of the forces (N²·m/N → N): the solver's tolerances are

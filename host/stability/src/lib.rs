@@ -10,7 +10,9 @@
 //! - [`gate`]: Theorem 2 verdicts, margins (42)/(52), broken connections (44), the
 //!   determinate-tree fast path;
 //! - [`range`]: admissible external load at a point by bisection (SOCP 4.1);
-//! - [`puzzlebot`]: PuzzleBot adapter and `max_safe_advance`;
+//! - [`puzzlebot`]: PuzzleBot adapter and `max_safe_advance`; [`judge`]: its verdict on a
+//!   model; [`transfer`]: the connectors' elastic loads and their peak when the support
+//!   changes;
 //! - [`crossing`]: which shape, pilot places and heading cross a gap, ranked by the gate;
 //! - [`io`]: files, reports and [`io::gate_command`] (the CLI entry point); [`picture`]: SVG.
 #![deny(unsafe_code)] // one exception: the thread CPU clock of the benchmarks
@@ -25,12 +27,14 @@ pub mod events;
 pub mod gate;
 pub mod io;
 pub mod ipm;
+pub mod judge;
 pub mod model;
 pub mod picture;
 pub mod poe;
 pub mod puzzlebot;
 pub mod range;
 pub mod socp;
+pub mod transfer;
 
 pub use gate::{evaluate, evaluate_with, Formulation, Options, Report, Verdict};
 pub use io::{gate_command, load_assembly, GateError};

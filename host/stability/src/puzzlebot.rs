@@ -15,10 +15,12 @@
 //!   the anchor is free in yaw (THESIS 4.2.2: ±0.5 rad), so its yaw couple is released.
 
 pub use crate::events::support_events;
-use crate::gate::{evaluate, Verdict};
+pub use crate::judge::judge_model;
+use crate::judge::judge_transfer;
 use crate::model::{
     Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
 };
+pub use crate::transfer::{LoadTransfer, SOFT_SUPPORTS};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use serde::{Deserialize, Serialize};
@@ -109,6 +111,10 @@ pub struct AdvanceOptions {
     /// rests on it (m): the assembly's compliance lets a robot settle onto a platform a few
     /// millimetres down (THESIS 3.5.2's 5 mm, 3.5.3's 6 mm). 0: only the assembly's level.
     pub max_drop: f64,
+    /// Check the connectors against the peak of the load they take over at every support
+    /// event ([`crate::transfer`]) with this response; None: the settled loads only. Needs
+    /// `elastic`.
+    pub transfer: Option<LoadTransfer>,
     /// Search no further than this (m).
     pub horizon: f64,
 }
@@ -123,6 +129,7 @@ impl Default for AdvanceOptions {
             elastic: false,
             drive_accel: 0.0,
             max_drop: 0.0,
+            transfer: None,
             horizon: 1.0,
         }
     }
@@ -440,95 +447,6 @@ pub fn build_model_with(
     })
 }
 
-/// The gate's judgement of a built model (`None`: proven stable) travelling along `heading`
-/// (rad), with the elastic check of [`AdvanceOptions::elastic`] and the drive's acceleration
-/// both ways of [`AdvanceOptions::drive_accel`].
-pub fn judge_model(
-    m: &Assembly,
-    params: &FleetParams,
-    opt: &AdvanceOptions,
-    heading: f64,
-) -> Result<Option<LimitedBy>, AdapterError> {
-    if let Some(why) = judge_one(m, params, opt)? {
-        return Ok(Some(why));
-    }
-    let a = opt.drive_accel;
-    if !(a.is_finite() && a >= 0.0) {
-        return Err(AdapterError::BadNumber("drive_accel"));
-    }
-    if a > 0.0 {
-        let (s, c) = heading.sin_cos();
-        for sign in [1.0, -1.0] {
-            // d'Alembert: accelerating at a along the travel loads every module with −m·a.
-            let mut tilted = m.clone();
-            tilted.gravity[0] -= sign * a * c;
-            tilted.gravity[1] -= sign * a * s;
-            if let Some(why) = judge_one(&tilted, params, opt)? {
-                return Ok(Some(why));
-            }
-        }
-    }
-    Ok(None)
-}
-
-/// The gate's judgement of a model under its own gravity.
-fn judge_one(
-    m: &Assembly,
-    params: &FleetParams,
-    opt: &AdvanceOptions,
-) -> Result<Option<LimitedBy>, AdapterError> {
-    let rep = evaluate(m)?;
-    Ok(match rep.verdict {
-        Verdict::Stable if opt.elastic && !opt.rigid_couplings => elastic_limit(m, params)?,
-        Verdict::Stable => None,
-        Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
-        Verdict::InternalInstability => Some(LimitedBy::Connection {
-            pairs: rep.broken(),
-        }),
-        Verdict::NotProven { reason } => Some(LimitedBy::NotProven { reason }),
-    })
-}
-
-/// How much softer than the connectors the supports are in the soft-support limit of
-/// [`elastic_limit`]: far enough that the assembly settles as one body (the connectors' loads
-/// lie within about 1/`SOFT_SUPPORTS` of the limit's).
-pub const SOFT_SUPPORTS: f64 = 1e3;
-
-/// The connections the elastic distribution overloads (`None`: none): the connectors snap
-/// open rather than yield ([`AdvanceOptions::elastic`]). How stiff the supports are against
-/// the connectors decides the distribution and is not known (tyres, printed platforms, a
-/// simulator's soft contacts sink a loaded robot by about a millimetre, where the connectors
-/// give a third of that under their hold force), so both limits must hold: rigid supports,
-/// and supports [`SOFT_SUPPORTS`] times softer than the connectors.
-fn elastic_limit(m: &Assembly, params: &FleetParams) -> Result<Option<LimitedBy>, AdapterError> {
-    let r = m.resolve()?;
-    let c = &params.non_pilot.coupling;
-    let force = 1.0 / f64::from(c.connector_stiffness);
-    // A contact over a lower platform stands clear of it by the drop, a caster by its lift.
-    let gaps: Vec<f64> = m.contacts.iter().map(|k| k.gap.max(0.0)).collect();
-    let mut over = vec![false; r.connections.len()];
-    for support in [0.0, SOFT_SUPPORTS * force] {
-        let compliance = crate::elastic::Compliance {
-            force,
-            couple: 1.0 / f64::from(c.connector_angular_stiffness),
-            support,
-        };
-        // On soft supports a loaded robot sinks further than any drop it could rest on.
-        let gaps: &[f64] = if support > 0.0 { &[] } else { &gaps };
-        match crate::elastic::distribution_with_gaps(&r, compliance, gaps) {
-            Ok(Some(w)) => {
-                for (o, u) in over.iter_mut().zip(crate::elastic::use_of_limits(&r, &w)) {
-                    *o |= u.is_some_and(|u| u > 1.0);
-                }
-            }
-            Ok(None) => return Ok(Some(LimitedBy::Tips)),
-            Err(reason) => return Ok(Some(LimitedBy::NotProven { reason })),
-        }
-    }
-    let pairs: Vec<usize> = (0..over.len()).filter(|&k| over[k]).collect();
-    Ok((!pairs.is_empty()).then_some(LimitedBy::Connection { pairs }))
-}
-
 /// How far this assembly can advance along `heading` (rad) before it tips or a connection
 /// fails, scanning contact changes every `step` m (default options: measured coupling limits,
 /// 1 m horizon).
@@ -595,6 +513,15 @@ pub fn max_safe_advance_with(
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
         judge_model(&m, params, &opt, heading)
     };
+    // The connectors' peak as the support changes between the states at `lo` and `hi`.
+    let transfer = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        if opt.transfer.is_none() {
+            return Ok(None);
+        }
+        let before = build_model_with(assembly, params, terrain, level, at(lo), &opt)?;
+        let after = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
+        judge_transfer(&before, &after, params, &opt, heading)
+    };
     let mut cur = state(0.0);
     if let Some(why) = judge(0.0, &cur)? {
         return Ok(Advance {
@@ -636,7 +563,7 @@ pub fn max_safe_advance_with(
             }
             st = state(hi);
         }
-        if let Some(why) = judge(hi, &st)? {
+        if let Some(why) = judge(hi, &st)?.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
             return Ok(Advance {
                 distance: lo,
                 limited_by: why,
