@@ -15,7 +15,7 @@ use puzzlebot_mpc::{
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::messages::RobotId;
 
-use super::costs::{costs, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
+use super::costs::{costs, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_HOLD};
 use super::gate::{Gate, GateConfig, GateStop};
 use super::latency::{PoseHistory, FLEET_WAIT_S, MAX_PREDICTION_S};
 use super::separation::{separate_making_way, Exemptions, SeparationConfig};
@@ -331,10 +331,20 @@ impl Controller for AssemblyController {
                 _ => true,
             });
         }
+        // The anchors' maintenance cost (THESIS 4.8) pulls each robot of a pair towards its
+        // partner's predicted plan. While assemblies move, every member already tracks its
+        // own place (a rigid offset or its predecessor's path): the cost would only couple
+        // two controllers that each see the other's noisy, latency-late prediction, and they
+        // swing the joint between them until the anchor pops. So it holds while forming,
+        // holding and decoupling, not while assemblies move.
+        let moving = matches!(
+            self.runner.coordinator().mode(),
+            Mode::Velocity { .. } | Mode::GoTo { .. } | Mode::Track { .. }
+        );
         let pairs: Vec<CoupledPair> = tick
             .maintain
             .iter()
-            .filter(|m| m.kind == PairType::AnchorOpening)
+            .filter(|m| m.kind == PairType::AnchorOpening && !moving)
             .filter(|m| present.contains(&m.a) && present.contains(&m.b))
             .map(|m| CoupledPair {
                 anchor_robot: m.a,
@@ -359,12 +369,12 @@ impl Controller for AssemblyController {
                 direct.insert(task.robot, Twist::new(v, w));
             }
         }
-        // Joints held straight while forming, freer while an assembly moves (a train bends
-        // in turns).
+        // Joints held straight while forming, freer otherwise (a train that bent in a turn
+        // stays bent while it holds).
         let heading = if matches!(self.runner.coordinator().mode(), Mode::Form) {
             MAINTAIN_HEADING_FORM
         } else {
-            MAINTAIN_HEADING_MOVE
+            MAINTAIN_HEADING_HOLD
         };
         // Both constants are finite and ≥ 0: the setter cannot refuse them.
         let _ = self.mpc.set_maintain_heading(heading);

@@ -6,16 +6,13 @@ use puzzlebot_mpc::{Command, ConnectionPoint, CostTerm, StageWeights};
 
 /// Heading weight of the anchors' maintenance cost (THESIS 4.8; relative to its position
 /// weight W_c = 1000, see `MpcConfig::maintain_heading`) while a shape forms: keeps coupled
-/// joints straight while their robots align with others. Measured 2026-12-01 in lockstep
-/// (seeds 1–24 at 0 and 20 ms): the driving line passes 46 of 48 (32 with the hard
-/// constraints and their infeasible retries, the previous behaviour), the 2×2 mesh 48 of 48
-/// (41), the lost-robot line 21 of 24 at 30 ms (24; 24 again once an assembly holds while a
-/// lone robot joins it, see `Coordinator::tasks`); 0.006 gave 37 / 48 / 23, 0.012
-/// 41 / 46 / 19, 0.03 fewer (the joints too stiff to let a segment meet its partner).
+/// joints straight while their robots align with others, and loose enough that a segment
+/// can still turn to meet its partner (a stiffer joint holds the segment off).
 pub const MAINTAIN_HEADING_FORM: f64 = 0.008;
-/// Heading weight of the anchors' maintenance cost while assemblies move (a train must bend
-/// in a turn: ≈ 0.2 rad at a 0.3 m radius); the line passed the same from 1e-4 to 0.003.
-pub const MAINTAIN_HEADING_MOVE: f64 = 0.003;
+/// Heading weight of the anchors' maintenance cost when not forming (holding, decoupling):
+/// a train that bent in a turn (≈ 0.2 rad at a 0.3 m radius) is not straightened. While
+/// assemblies move the maintenance cost is off (see `AssemblyController::update`).
+pub const MAINTAIN_HEADING_HOLD: f64 = 0.003;
 
 /// Heading weight (relative to position) of a robot hanging at a connected anchor while its
 /// assembly moves (its role aligns it with its partner, see `Coordinator::tasks`) when that

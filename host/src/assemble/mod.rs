@@ -36,7 +36,7 @@ pub mod slow_steps;
 pub mod truth;
 
 pub use controller::AssemblyController;
-pub use costs::{HANG_HEADING, KEEP_HEADING, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_MOVE};
+pub use costs::{HANG_HEADING, KEEP_HEADING, MAINTAIN_HEADING_FORM, MAINTAIN_HEADING_HOLD};
 pub use fleet_run::{load_terrain, run_scenario_on_fleet, FleetRunOptions};
 #[cfg(feature = "sim")]
 pub use fleets::{
