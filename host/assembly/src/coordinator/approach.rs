@@ -4,6 +4,10 @@
 use super::*;
 use crate::assign::LANE_TOLERANCE;
 
+/// Heading error (rad) at which the staged approach's turn on the spot at the stand-off is
+/// done: the line follower going in steers out the rest.
+pub(super) const APPROACH_TURN_DONE: f64 = 0.1;
+
 /// A docking robot relative to its final pose (see [`Role::Dock`]).
 pub(super) struct DockFrame {
     /// Final pose: the two connection points on each other.
@@ -302,7 +306,7 @@ impl Coordinator {
                 phase.remove(&i);
                 return Some(Role::Hold);
             }
-            Some(Manoeuvre::Turning) if yaw_rel.abs() > 0.1 => {
+            Some(Manoeuvre::Turning) if yaw_rel.abs() > APPROACH_TURN_DONE => {
                 // Turn on the spot, never slower than the wheels' dead-band allows.
                 let w =
                     (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();

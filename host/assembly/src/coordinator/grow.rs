@@ -257,14 +257,15 @@ mod tests {
         let at = plan.goal_poses[plan.slot_of(1).unwrap()];
         assert!(at.x.abs() < 1e-9 && at.y.abs() < 1e-9 && at.yaw.abs() < 1e-9);
         let tick = c.tick(0.0, &robots);
-        // One robot at a time joins the pilot; the pilot is not driven, the other waits.
+        // One robot at a time joins the pilot; the pilot is not driven, the other drives
+        // to its stand-off meanwhile (`staging`).
         assert_eq!(tick.active.len(), 1);
         assert!(matches!(role_of(&tick, 1), Role::Hold | Role::Wait));
         let moving: Vec<RobotId> = [2, 3]
             .into_iter()
             .filter(|&id| matches!(role_of(&tick, id), Role::Dock { .. } | Role::GoTo { .. }))
             .collect();
-        assert_eq!(moving.len(), 1, "{:?}", tick.tasks);
+        assert_eq!(moving.len(), 2, "{:?}", tick.tasks);
     }
 
     #[test]

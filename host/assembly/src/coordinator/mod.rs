@@ -27,6 +27,7 @@ mod retarget;
 mod role;
 mod routing;
 mod segments;
+mod staging;
 mod tasks;
 #[cfg(test)]
 mod tests;

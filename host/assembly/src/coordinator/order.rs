@@ -166,6 +166,60 @@ impl Coordinator {
             .any(|&(_, _, on_axis)| on_axis)
     }
 
+    /// The corridor of pair `i`'s staged approach: a lone robot's, or a lane train driving
+    /// up to the seed (its whole way along the lane is the corridor, and it has no
+    /// stand-off); with the robots it does not count (the mover's and the partner's).
+    fn approach_corridor(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+    ) -> Option<(Corridor, RobotId, RobotId)> {
+        let (mover, partner, train) = match self.lone_approach(i, segments) {
+            Some((m, p)) => (m, p, false),
+            None => {
+                let (m, p) = self.lane_train_pair(i, segments)?;
+                (m, p, true)
+            }
+        };
+        let f = self.dock_frame(i, mover)?;
+        // Own connection point at the front: the approach comes from behind the place.
+        let s = f.normal.0.signum();
+        let room = self.room();
+        let reach = if train {
+            -s * f.here[0]
+        } else {
+            self.cfg.dock.standoff + room.route_clearance
+        };
+        // A train's bodies sweep the lane: anyone whose body overlaps it blocks.
+        let half = if train {
+            room.lane_block_half_width
+        } else {
+            f64::from(self.geometry.width)
+        };
+        let corridor = Corridor {
+            fin: f.fin,
+            s,
+            reach,
+            half,
+            train,
+            standoff: self.cfg.dock.standoff,
+            route_clearance: room.route_clearance,
+        };
+        Some((corridor, mover, partner))
+    }
+
+    /// Whether a robot standing at `p` would be in the way of pair `i`'s staged approach
+    /// (as [`Coordinator::approach_blockers`] counts it).
+    pub(super) fn in_approach_corridor(
+        &self,
+        i: usize,
+        segments: &BTreeMap<RobotId, usize>,
+        p: [f64; 2],
+    ) -> bool {
+        self.approach_corridor(i, segments)
+            .is_some_and(|(c, _, _)| c.test(p).is_some())
+    }
+
     /// The robots in the way of pair `i`'s staged approach: on its axis (flag `true`, what
     /// [`Coordinator::approach_blocked`] counts) or too near its stand-off for the route
     /// there. Each comes with a place it can stand instead: beside the axis on the side it
@@ -176,26 +230,10 @@ impl Coordinator {
         i: usize,
         segments: &BTreeMap<RobotId, usize>,
     ) -> Vec<(RobotId, Pose2, bool)> {
-        // A lone robot's staged approach, or a lane train driving up to the seed (its whole
-        // way along the lane is the corridor, and it has no stand-off).
-        let (mover, partner, train) = match self.lone_approach(i, segments) {
-            Some((m, p)) => (m, p, false),
-            None => match self.lane_train_pair(i, segments) {
-                Some((m, p)) => (m, p, true),
-                None => return Vec::new(),
-            },
-        };
-        let Some(f) = self.dock_frame(i, mover) else {
+        let Some((c, mover, partner)) = self.approach_corridor(i, segments) else {
             return Vec::new();
         };
-        // Own connection point at the front: the approach comes from behind the place.
-        let s = f.normal.0.signum();
         let room = self.room();
-        let reach = if train {
-            -s * f.here[0]
-        } else {
-            self.cfg.dock.standoff + room.route_clearance
-        };
         self.robots
             .iter()
             .filter(|&(&id, _)| {
@@ -205,26 +243,13 @@ impl Coordinator {
                     && segments.get(&id) != segments.get(&mover)
             })
             .filter_map(|(&id, k)| {
-                let o = f.fin.inverse_transform(k.pose.xy());
-                let out = -s * o[0];
-                // A train's bodies sweep the lane: anyone whose body overlaps it blocks.
-                let half = if train {
-                    room.lane_block_half_width
-                } else {
-                    f64::from(self.geometry.width)
-                };
-                let on_axis = out > 0.0 && out < reach && o[1].abs() < half;
-                // Too near the stand-off for the route there (it keeps its clearance).
-                let dx = out - self.cfg.dock.standoff;
-                let at_standoff = !train && dx.hypot(o[1]) < room.route_clearance;
-                (on_axis || at_standoff).then(|| {
-                    let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
-                    let clear = room.route_clearance + self.cfg.dock.standoff_margin;
-                    let lat = (half + room.make_way_margin)
-                        .max((clear * clear - dx * dx).max(0.0).sqrt());
-                    let to = f.fin.transform([o[0], side * lat]);
-                    (id, Pose2::new(to[0], to[1], k.pose.yaw), on_axis)
-                })
+                let (o, dx, on_axis) = c.test(k.pose.xy())?;
+                let side = if o[1] < 0.0 { -1.0 } else { 1.0 };
+                let clear = room.route_clearance + self.cfg.dock.standoff_margin;
+                let lat =
+                    (c.half + room.make_way_margin).max((clear * clear - dx * dx).max(0.0).sqrt());
+                let to = c.fin.transform([o[0], side * lat]);
+                Some((id, Pose2::new(to[0], to[1], k.pose.yaw), on_axis))
             })
             .collect()
     }
@@ -499,6 +524,39 @@ impl Coordinator {
                 }
             }
         }
+    }
+}
+
+/// The room a staged approach sweeps ([`Coordinator::approach_blockers`]).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Corridor {
+    /// The final place; the axis runs along its x.
+    fin: Pose2,
+    /// +1: the approach comes from behind the place (own connection point at the front).
+    s: f64,
+    /// How far out along the axis the corridor reaches (m).
+    reach: f64,
+    /// Half its width (m).
+    half: f64,
+    /// A lane train's corridor (no stand-off).
+    train: bool,
+    /// Stand-off distance (m).
+    standoff: f64,
+    /// Room the route to the stand-off keeps (m).
+    route_clearance: f64,
+}
+
+impl Corridor {
+    /// A body centred at `p` in the way: on the axis nearer the place than `reach`, or too
+    /// near the stand-off for the route there. Some((p in the place's frame, distance out
+    /// past the stand-off, on the axis)).
+    fn test(&self, p: [f64; 2]) -> Option<([f64; 2], f64, bool)> {
+        let o = self.fin.inverse_transform(p);
+        let out = -self.s * o[0];
+        let on_axis = out > 0.0 && out < self.reach && o[1].abs() < self.half;
+        let dx = out - self.standoff;
+        let at_standoff = !self.train && dx.hypot(o[1]) < self.route_clearance;
+        (on_axis || at_standoff).then_some((o, dx, on_axis))
     }
 }
 

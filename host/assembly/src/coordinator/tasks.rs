@@ -294,6 +294,14 @@ impl Coordinator {
                         }
                     }
                 }
+                // While the grown assembly is busy, the robot that joins it next stages.
+                if let Some((i, me)) = self.next_to_stage(&active, segments) {
+                    if !roles.contains_key(&me) {
+                        if let Some(role) = self.staging_role(i, me, &active, segments) {
+                            roles.insert(me, (role, Some(me)));
+                        }
+                    }
+                }
                 // Robots with unfinished pairs that could not start wait.
                 for (i, tp) in self.pairs.iter().enumerate() {
                     if tp.status != PairStatus::Connected && !self.released.contains(&i) {
