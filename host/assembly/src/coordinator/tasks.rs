@@ -296,9 +296,9 @@ impl Coordinator {
                 }
                 // While the grown assembly is busy, the robot that joins it next stages.
                 if let Some((i, me)) = self.next_to_stage(&active, segments) {
-                    if !roles.contains_key(&me) {
+                    if let std::collections::btree_map::Entry::Vacant(e) = roles.entry(me) {
                         if let Some(role) = self.staging_role(i, me, &active, segments) {
-                            roles.insert(me, (role, Some(me)));
+                            e.insert((role, Some(me)));
                         }
                     }
                 }
