@@ -139,7 +139,7 @@ impl Coordinator {
                 return Some(self.drive_to(i, &km.pose, next));
             }
             // There: turn on the spot to the approach heading.
-            let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();
+            let w = self.spot_turn_rate(-yaw_rel);
             let (v, w) = self.turn_in_place(&km.pose, goal.xy(), w);
             return Some(Role::Dock { pair: i, v, w });
         }
@@ -215,7 +215,7 @@ impl Coordinator {
             // driving now would close the hold at once (flush with the side at the wrong
             // hole). Only on the way in: sweeping over the place, turns on the spot at each
             // reversal would keep robots from clicking in.
-            let w = (d.k_theta * err.abs()).clamp(d.min_turn, d.max_turn) * -err.signum();
+            let w = self.spot_turn_rate(-err);
             return Some(Role::Dock { pair: i, v: 0.0, w });
         }
         Some(Role::Dock {
@@ -223,6 +223,13 @@ impl Coordinator {
             v,
             w: -d.k_theta * err,
         })
+    }
+
+    /// The stand-off pose of a staged anchor approach to the place `fin` (on its axis,
+    /// facing its way), and its distance out ([`Coordinator::approach_standoff`]).
+    pub(super) fn approach_standoff_pose(&self, fin: &Pose2, s: f64, me: RobotId) -> (Pose2, f64) {
+        let standoff = self.approach_standoff(fin, s, me);
+        (fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0)), standoff)
     }
 
     /// The stand-off of a staged anchor approach to the place `fin` (m out along its axis,
@@ -285,8 +292,7 @@ impl Coordinator {
         // In: the line follower steers out twice the stand-off's tolerance (turning on the
         // spot drifts by about a centimetre).
         let on_axis = lat.abs() <= 2.0 * d.capture && out >= -0.002;
-        let standoff = self.approach_standoff(&fin, s, me);
-        let pre = fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
+        let (pre, standoff) = self.approach_standoff_pose(&fin, s, me);
         let dist = (km.pose.x - pre.x).hypot(km.pose.y - pre.y);
         match phase.get(&i).copied() {
             None if dist > d.capture => {
@@ -308,8 +314,7 @@ impl Coordinator {
             }
             Some(Manoeuvre::Turning) if yaw_rel.abs() > APPROACH_TURN_DONE => {
                 // Turn on the spot, never slower than the wheels' dead-band allows.
-                let w =
-                    (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();
+                let w = self.spot_turn_rate(-yaw_rel);
                 let (v, w) = self.turn_in_place(&km.pose, pre.xy(), w);
                 return Some(Role::Dock { pair: i, v, w });
             }

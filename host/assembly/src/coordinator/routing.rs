@@ -34,6 +34,14 @@ impl Coordinator {
         }
     }
 
+    /// Turn rate on the spot through the heading error `err` (rad, the turn still to make):
+    /// proportional ([`DockConfig::k_theta`]), never slower than the wheels' dead-band
+    /// allows ([`DockConfig::min_turn`]) nor faster than [`DockConfig::max_turn`].
+    pub(super) fn spot_turn_rate(&self, err: f64) -> f64 {
+        let d = self.cfg.dock;
+        (d.k_theta * err.abs()).clamp(d.min_turn, d.max_turn) * err.signum()
+    }
+
     /// (v, ω) towards point `goal` from `pose`: forwards or backwards, whichever needs less
     /// turning; turn on the spot first when the heading is off by more than 0.3 rad. Speeds
     /// stay above the wheels' dead-band ([`DockConfig::speed`], [`DockConfig::min_turn`]).
@@ -47,7 +55,7 @@ impl Coordinator {
             dir = -1.0;
         }
         if e.abs() > 0.3 {
-            let w = (d.k_theta * e.abs()).clamp(d.min_turn, d.max_turn) * e.signum();
+            let w = self.spot_turn_rate(e);
             return self.turn_in_place(pose, goal, w);
         }
         (dir * d.speed, d.k_theta * e)

@@ -61,8 +61,7 @@ impl Coordinator {
         let km = self.robots.get(&me)?;
         let d = self.cfg.dock;
         let s = f.normal.0.signum();
-        let standoff = self.approach_standoff(&f.fin, s, me);
-        let pre = f.fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
+        let (pre, _) = self.approach_standoff_pose(&f.fin, s, me);
         if active
             .iter()
             .any(|&a| self.in_approach_corridor(a, segments, pre.xy()))
@@ -78,7 +77,7 @@ impl Coordinator {
         if yaw_rel.abs() <= APPROACH_TURN_DONE {
             return None;
         }
-        let w = (d.k_theta * yaw_rel.abs()).clamp(d.min_turn, d.max_turn) * -yaw_rel.signum();
+        let w = self.spot_turn_rate(-yaw_rel);
         let (v, w) = self.turn_in_place(&km.pose, pre.xy(), w);
         Some(Role::Drive { v, w })
     }
@@ -134,8 +133,7 @@ mod tests {
         // out of the docking robot's corridor.
         let f = c.dock_frame(i, me).unwrap();
         let s = f.normal.0.signum();
-        let standoff = c.approach_standoff(&f.fin, s, me);
-        let pre = f.fin.compose(&Pose2::new(-s * standoff, 0.0, 0.0));
+        let (pre, _) = c.approach_standoff_pose(&f.fin, s, me);
         assert!(!c.in_approach_corridor(active, &segments, pre.xy()));
         for r in robots.iter_mut().filter(|r| r.id == next) {
             r.pose = pre;
