@@ -129,6 +129,8 @@ pub struct Summary {
     pub formation_p95_s: Option<f64>,
     /// Median formation time of 8-robot episodes (simulated s).
     pub formation_median_8_s: Option<f64>,
+    /// Planned anchor pairs that came apart after formation, summed over the episodes.
+    pub pops: usize,
     /// Failed episodes by class.
     pub failures: BTreeMap<Failure, Vec<FailedEpisode>>,
     /// Wall-clock time of the batch (s).
@@ -241,6 +243,7 @@ pub fn summarise(profile: Profile, seed: u64, episodes: Vec<Outcome>, wall_s: f6
         formation_median_s: percentile(&formed, 0.5),
         formation_p95_s: percentile(&formed, 0.95),
         formation_median_8_s: percentile(&formed8, 0.5),
+        pops: episodes.iter().map(|o| o.pops).sum(),
         failures,
         wall_s,
         episodes,
@@ -273,6 +276,11 @@ pub fn describe(s: &Summary) -> String {
         secs(s.formation_median_s),
         secs(s.formation_p95_s),
         secs(s.formation_median_8_s)
+    ));
+    t.push_str(&format!(
+        "anchors that came apart after formation: {} in {} episodes\n",
+        s.pops,
+        s.episodes.iter().filter(|o| o.pops > 0).count()
     ));
     t.push_str(&format!(
         "wall time {:.1} s\n\nbucket                  passed     rate     95 % interval\n",

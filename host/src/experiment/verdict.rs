@@ -111,6 +111,9 @@ pub struct Outcome {
     pub detail: String,
     /// Simulated time from the start of the formation step to formation complete (s).
     pub formation_s: Option<f64>,
+    /// Planned anchor pairs that came apart in the ground truth between formation complete
+    /// and the dissolve (each time counted; the host couples them again while it can).
+    pub pops: usize,
     /// Simulated time of the whole run (s).
     pub sim_s: f64,
     /// Wall-clock time the episode took (s).
@@ -261,6 +264,7 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
         failure: Some(failure),
         detail,
         formation_s: None,
+        pops: 0,
         sim_s: 0.0,
         wall_s: wall.elapsed().as_secs_f64(),
     };
@@ -414,6 +418,7 @@ fn judge(
         failure: None,
         detail: String::new(),
         formation_s,
+        pops: 0,
         sim_s: run.t_end,
         wall_s: 0.0,
     };
@@ -461,6 +466,13 @@ fn judge(
         } else {
             u64::MAX
         };
+        let pops = |e: &&puzzlebot_sim::SimEvent| match e.kind {
+            SimEventKind::Decoupled { a, b, .. } => {
+                e.t_us > from && e.t_us < to && plan.contains(&unordered(a, b))
+            }
+            _ => false,
+        };
+        out.pops = run.sim_events.iter().filter(pops).count();
         popped = run.sim_events.iter().find_map(|e| match e.kind {
             SimEventKind::Decoupled { a, b, .. }
                 if e.t_us > from && e.t_us < to && plan.contains(&unordered(a, b)) =>
