@@ -360,6 +360,10 @@ enum ExperimentCmd {
         /// Largest fleet drawn (6-12).
         #[arg(long, default_value_t = 12)]
         max_robots: usize,
+        /// Mean controller latency (ms) instead of the profile's; its jitter, loss, noise and
+        /// mismatch stay (e.g. `--profile ideal --latency-ms 60`: a 60 ms link, nothing else).
+        #[arg(long)]
+        latency_ms: Option<f64>,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,

@@ -177,6 +177,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                     shapes,
                     parallel,
                     max_robots,
+                    latency_ms,
                     json,
                 },
         } => {
@@ -185,6 +186,11 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             let shapes_dir = shapes.unwrap_or_else(episode::default_shapes_dir);
             if !(0.0..=1.0).contains(&parallel) {
                 anyhow::bail!("--parallel: a share within 0..=1, got {parallel}");
+            }
+            if let Some(ms) =
+                latency_ms.filter(|ms| !(ms.is_finite() && (0.0..=1000.0).contains(ms)))
+            {
+                anyhow::bail!("--latency-ms: a mean latency within 0..=1000 ms, got {ms}");
             }
             let mut opts = assemblies::Options {
                 episodes,
@@ -195,6 +201,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 progress: !json,
                 parallel,
                 max_robots,
+                latency_ms,
             };
             if let Some(seed) = replay {
                 let o = tokio::task::spawn_blocking(move || assemblies::replay(&opts, seed, &runs))

@@ -36,6 +36,8 @@ pub struct Options {
     pub parallel: f64,
     /// Largest fleet drawn (6…12).
     pub max_robots: usize,
+    /// Mean controller latency instead of the profile's (ms).
+    pub latency_ms: Option<f64>,
 }
 
 impl Options {
@@ -50,11 +52,15 @@ impl Options {
             progress: false,
             parallel: 0.0,
             max_robots: super::episode::MAX_ROBOTS,
+            latency_ms: None,
         }
     }
 
     fn draw(&self, seed: u64, shapes: &[CustomShape]) -> Episode {
-        Episode::draw_up_to(seed, self.profile, shapes, self.parallel, self.max_robots)
+        let mut ep =
+            Episode::draw_up_to(seed, self.profile, shapes, self.parallel, self.max_robots);
+        ep.latency_ms = self.latency_ms;
+        ep
     }
 }
 
@@ -263,8 +269,13 @@ fn pct(r: &Rate) -> String {
 
 /// The summary as a table for the terminal.
 pub fn describe(s: &Summary) -> String {
+    let latency = s
+        .episodes
+        .first()
+        .and_then(|o| o.episode.latency_ms)
+        .map_or(String::new(), |ms| format!(" at {ms} ms latency"));
     let mut t = format!(
-        "assemblies, profile {}, seeds {}..{}: {}   (95 % Wilson interval)\n",
+        "assemblies, profile {}{latency}, seeds {}..{}: {}   (95 % Wilson interval)\n",
         s.profile.name(),
         s.seed,
         s.seed + s.overall.total as u64,

@@ -243,6 +243,9 @@ pub struct Episode {
     pub motion: EpisodeMove,
     /// Dissolved and dispersed after the move.
     pub dissolve: bool,
+    /// Mean controller latency instead of the profile's (ms; the profile's jitter stays).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub latency_ms: Option<f64>,
 }
 
 /// Largest fleet of an episode.
@@ -332,6 +335,7 @@ impl Episode {
                 duration_s,
             },
             dissolve,
+            latency_ms: None,
         }
     }
 
@@ -342,6 +346,15 @@ impl Episode {
             5..=8 => "5-8",
             _ => "9-12",
         }
+    }
+
+    /// The profile's impairment with this episode's latency.
+    pub fn impairment(&self) -> Impairment {
+        let mut imp = self.profile.impairment();
+        if let Some(ms) = self.latency_ms {
+            imp.latency_ms = ms;
+        }
+        imp
     }
 
     /// Time limit of the formation step (s): the order is sequential where it grows, so
@@ -367,7 +380,7 @@ impl Episode {
     /// The simulated fleet: robots scattered over the area (pilots in one lane), the
     /// profile's link loss and motion capture, each robot's plant mismatch.
     pub fn sim_scenario(&self) -> anyhow::Result<puzzlebot_sim::Scenario> {
-        let imp = self.profile.impairment();
+        let imp = self.impairment();
         let mut s = scattered_fleet_in(self.robots, self.pilots, self.seed, self.area_half_side)?;
         s.impairments = Impairments {
             loss: imp.loss,
@@ -442,9 +455,11 @@ impl Episode {
     /// One line for logs.
     pub fn describe(&self) -> String {
         format!(
-            "seed {} [{}]: {} robots, {} pilot(s), {}{}, move {:.2} m turning {:+.2} rad{}",
+            "seed {} [{}{}]: {} robots, {} pilot(s), {}{}, move {:.2} m turning {:+.2} rad{}",
             self.seed,
             self.profile.name(),
+            self.latency_ms
+                .map_or(String::new(), |ms| format!(", {ms} ms latency")),
             self.robots,
             self.pilots,
             self.shape.bucket(),
@@ -511,5 +526,24 @@ mod tests {
             .iter()
             .all(|r| r.mismatch == PlantMismatch::NONE));
         assert_eq!(lab.impairments.loss, 0.02);
+    }
+
+    #[test]
+    fn a_latency_override_replaces_the_profiles_mean_and_keeps_the_rest() {
+        let shapes = custom_shapes(&default_shapes_dir()).expect("shapes");
+        let mut ep = Episode::draw(7, Profile::Lab, &shapes, 0.0);
+        let lab = ep.impairment();
+        assert_eq!(lab, Profile::Lab.impairment());
+        ep.latency_ms = Some(60.0);
+        let imp = ep.impairment();
+        assert_eq!(imp.latency_ms, 60.0);
+        assert_eq!(
+            Impairment {
+                latency_ms: lab.latency_ms,
+                ..imp
+            },
+            lab
+        );
+        assert!(ep.describe().contains("60 ms latency"), "{}", ep.describe());
     }
 }

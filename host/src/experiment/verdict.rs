@@ -277,7 +277,7 @@ pub fn run_episode(ep: &Episode, folder: Option<&Path>) -> Outcome {
         Ok(s) => s,
         Err(e) => return fail(Failure::Refused, format!("{e:#}")),
     };
-    let imp = ep.profile.impairment();
+    let imp = ep.impairment();
     let mut ls = match Lockstep::new(&sim) {
         Ok(l) => l
             .command_delay(imp.delay_ms())
