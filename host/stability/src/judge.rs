@@ -5,18 +5,29 @@
 use crate::gate::{evaluate, Verdict};
 use crate::model::Assembly;
 use crate::puzzlebot::{AdapterError, AdvanceOptions, LimitedBy};
+use crate::sag::settled_tilt;
 use crate::transfer::{elastic_limit, transfer_limit};
 use puzzlebot_params::FleetParams;
 
 /// The gate's judgement of a built model (`None`: proven stable) travelling along `heading`
-/// (rad), with the elastic check of [`AdvanceOptions::elastic`] and the drive's acceleration
-/// both ways of [`AdvanceOptions::drive_accel`].
+/// (rad), with the elastic check of [`AdvanceOptions::elastic`], the drive's acceleration
+/// both ways of [`AdvanceOptions::drive_accel`], and leaning as it settles into supports that
+/// give ([`AdvanceOptions::settling`], [`settled_tilt`]).
 pub fn judge_model(
     m: &Assembly,
     params: &FleetParams,
     opt: &AdvanceOptions,
     heading: f64,
 ) -> Result<Option<LimitedBy>, AdapterError> {
+    // On supports that give, the settled assembly leans towards its loaded side.
+    let leaning;
+    let m = match &opt.settling {
+        Some(s) => {
+            leaning = settled_tilt(m, s.support_compliance);
+            &leaning
+        }
+        None => m,
+    };
     if let Some(why) = judge_one(m, params, opt)? {
         return Ok(Some(why));
     }
@@ -69,7 +80,7 @@ pub(crate) fn judge_transfer(
             .zip(driven(after, opt, heading)?),
     );
     for (b, a) in pairs {
-        if let Some(why) = transfer_limit(&b, &a, params, t)? {
+        if let Some(why) = transfer_limit(&b, &a, params, t, opt.settling.as_ref())? {
             return Ok(Some(why));
         }
     }
@@ -84,7 +95,9 @@ fn judge_one(
 ) -> Result<Option<LimitedBy>, AdapterError> {
     let rep = evaluate(m)?;
     Ok(match rep.verdict {
-        Verdict::Stable if opt.elastic && !opt.rigid_couplings => elastic_limit(m, params)?,
+        Verdict::Stable if opt.elastic && !opt.rigid_couplings => {
+            elastic_limit(m, params, opt.settling.as_ref())?
+        }
         Verdict::Stable => None,
         Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
         Verdict::InternalInstability => Some(LimitedBy::Connection {
