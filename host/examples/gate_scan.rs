@@ -59,7 +59,16 @@ fn main() {
                 couple: 1.0 / f64::from(c.connector_angular_stiffness),
                 support: k / f64::from(c.connector_stiffness),
             };
-            match elastic::distribution_with_gaps(&r, comp, &gaps) {
+            let cs: f64 = std::env::var("CASTER")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(1.0);
+            let scale: Vec<f64> = m
+                .contacts
+                .iter()
+                .map(|k| if k.mu[0] > 0.0 { 1.0 } else { cs })
+                .collect();
+            match elastic::distribution_with_supports(&r, comp, &gaps, &scale) {
                 Ok(Some(w)) => {
                     let u: Vec<String> = elastic::use_of_limits(&r, &w)
                         .iter()

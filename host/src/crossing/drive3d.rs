@@ -68,20 +68,25 @@ pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
 /// The planner's options for a crossing driven with `settings`: the gate's proof covers the
 /// drive speeding up to and braking from `settings.speed` along the firmware's reference
 /// response (time constant `firmware.reference_tau_ms`), a = v / τ; the supports give as the
-/// 3-D world's soft contacts under a wheel (stiffness m_wheel·(2π·f)², the engine's contact
-/// frequency f), and the bodies stand its chassis clearance high.
+/// 3-D world's soft contacts, whose stiffness is m·(2π·f)² for the mass m of the body they
+/// hold at the engine's contact frequency f (a wheel's own, a caster's the chassis'), and the
+/// bodies stand its chassis clearance high.
 pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> CrossingOptions {
     let tau = [&params.pilot, &params.non_pilot]
         .iter()
         .map(|p| 1e-3 * f64::from(p.firmware.reference_tau_ms))
         .fold(f64::INFINITY, f64::min);
     let w = &settings.world;
-    let contact = w.wheel_mass * (std::f64::consts::TAU * w.contact_frequency).powi(2);
+    let per_kg = (std::f64::consts::TAU * w.contact_frequency).powi(2);
+    // A non-pilot's chassis: its mass less its two wheels'.
+    let chassis = f64::from(params.non_pilot.mass.mass) - 2.0 * w.wheel_mass;
     CrossingOptions {
         drive_accel: if tau > 0.0 { settings.speed / tau } else { 0.0 },
         settling: Some(Settling {
-            support_compliance: 1.0 / contact,
+            wheel_compliance: 1.0 / (w.wheel_mass * per_kg),
+            caster_compliance: 1.0 / (chassis.max(w.wheel_mass) * per_kg),
             body_clearance: w.chassis_clearance,
+            max_droop: w.fall_depth,
         }),
         ..CrossingOptions::default()
     }

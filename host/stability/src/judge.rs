@@ -5,29 +5,18 @@
 use crate::gate::{evaluate, Verdict};
 use crate::model::Assembly;
 use crate::puzzlebot::{AdapterError, AdvanceOptions, LimitedBy};
-use crate::sag::settled_tilt;
 use crate::transfer::{elastic_limit, transfer_limit};
 use puzzlebot_params::FleetParams;
 
 /// The gate's judgement of a built model (`None`: proven stable) travelling along `heading`
-/// (rad), with the elastic check of [`AdvanceOptions::elastic`], the drive's acceleration
-/// both ways of [`AdvanceOptions::drive_accel`], and leaning as it settles into supports that
-/// give ([`AdvanceOptions::settling`], [`settled_tilt`]).
+/// (rad), with the elastic check of [`AdvanceOptions::elastic`] and the drive's acceleration
+/// both ways of [`AdvanceOptions::drive_accel`].
 pub fn judge_model(
     m: &Assembly,
     params: &FleetParams,
     opt: &AdvanceOptions,
     heading: f64,
 ) -> Result<Option<LimitedBy>, AdapterError> {
-    // On supports that give, the settled assembly leans towards its loaded side.
-    let leaning;
-    let m = match &opt.settling {
-        Some(s) => {
-            leaning = settled_tilt(m, s.support_compliance);
-            &leaning
-        }
-        None => m,
-    };
     if let Some(why) = judge_one(m, params, opt)? {
         return Ok(Some(why));
     }

@@ -21,7 +21,7 @@ use crate::judge::judge_transfer;
 use crate::model::{
     Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
 };
-use crate::sag::{edge_stall, Settling};
+use crate::sag::{droop, edge_stall, Settling};
 pub use crate::transfer::{LoadTransfer, SOFT_SUPPORTS};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
@@ -543,6 +543,24 @@ pub fn max_safe_advance_with(
                 .map(|robot| LimitedBy::StepUp { robot }),
         )
     };
+    // A hanging robot sagging into the gap ([`droop`]).
+    let droops = |d: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        let Some(s) = &opt.settling else {
+            return Ok(None);
+        };
+        let hanging: Vec<bool> = state(d)
+            .iter()
+            .map(|r| !r.iter().any(|t| matches!(t, Touch::On(..))))
+            .collect();
+        if !hanging.contains(&true) {
+            return Ok(None);
+        }
+        let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
+        Ok(
+            droop(assembly, params, terrain, level, at(d), &m, &hanging, s)
+                .map(|_| LimitedBy::Tips),
+        )
+    };
     // The connectors' peak as the support changes between the states at `lo` and `hi`.
     let transfer = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
         if opt.transfer.is_none() {
@@ -588,6 +606,13 @@ pub fn max_safe_advance_with(
                     limited_by: why,
                 });
             }
+        }
+        // The sag grows with the advance: the last check before is the answer.
+        if let Some(why) = droops(d)? {
+            return Ok(Advance {
+                distance: last,
+                limited_by: why,
+            });
         }
         let mut st = state(d);
         if st == cur {

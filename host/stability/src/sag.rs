@@ -14,7 +14,7 @@
 //! on a linear spring at every contact, each engaging once its sink has closed the contact's
 //! gap (a lifted caster, a lower platform) and carrying no pull ([`settle`]).
 
-use crate::model::Assembly;
+use crate::model::{Assembly, Contact};
 use crate::puzzlebot::{world, PuzzleAssembly, RobotPose};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
@@ -22,19 +22,27 @@ use puzzlebot_params::FleetParams;
 /// How the supports give and how high the bodies stand above them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settling {
-    /// Sink of a support under a unit normal force (m/N): a tyre on a platform. THESIS gives
+    /// Sink of a wheel under a unit normal force (m/N): a tyre on a platform. THESIS gives
     /// none; 2 mm/N, a wheel sinking about a millimetre under its share of a robot's weight.
-    pub support_compliance: f64,
+    pub wheel_compliance: f64,
+    /// Sink of a ball caster under a unit normal force (m/N): a hard ball on the chassis,
+    /// several times stiffer than a tyre. THESIS gives none; 0.3 mm/N.
+    pub caster_compliance: f64,
     /// Height of a robot's underside above the ground it stands on (m). THESIS gives none;
     /// 5 mm, as the 3-D physics' chassis.
     pub body_clearance: f64,
+    /// How far a hanging robot's underside may sag below the lowest platform top before it
+    /// counts as fallen (m): the 3-D physics' 10 mm.
+    pub max_droop: f64,
 }
 
 impl Default for Settling {
     fn default() -> Self {
         Settling {
-            support_compliance: 2e-3,
+            wheel_compliance: 2e-3,
+            caster_compliance: 3e-4,
             body_clearance: 0.005,
+            max_droop: 0.01,
         }
     }
 }
@@ -57,12 +65,34 @@ impl Settled {
     }
 }
 
+impl Settling {
+    /// Every support as soft as the softer of wheel and caster: the sag a hanging robot may
+    /// reach (stiffer casters would only lessen it).
+    pub fn softest(&self) -> Settling {
+        let c = self.wheel_compliance.max(self.caster_compliance);
+        Settling {
+            wheel_compliance: c,
+            caster_compliance: c,
+            ..*self
+        }
+    }
+
+    /// Compliance of contact `k` of a PuzzleBot model (m/N): a wheel holds friction, a caster
+    /// none.
+    pub fn of(&self, k: &Contact) -> f64 {
+        if k.mu[0] > 0.0 || k.mu[1] > 0.0 {
+            self.wheel_compliance
+        } else {
+            self.caster_compliance
+        }
+    }
+}
+
 /// The settling of model `m` (one rigid body under gravity) on its contacts, each a spring of
-/// compliance `compliance` (m/N) along the vertical that engages once the sink has closed its
-/// gap: the plane of sinks where the contact forces balance the weight and its moments. `None`
-/// when the loaded contacts cannot hold it (fewer than three off one line: the assembly tips
-/// on them).
-pub fn settle(m: &Assembly, compliance: f64) -> Option<Settled> {
+/// the compliance `s` gives it ([`Settling::of`], m/N) along the vertical that engages once
+/// the sink has closed its gap: the plane of sinks where the contact forces balance the weight
+/// and its moments. `None` when no contact can carry it.
+pub fn settle(m: &Assembly, s: &Settling) -> Option<Settled> {
     let g = -m.gravity[2];
     let (mut w, mut wx, mut wy) = (0.0, 0.0, 0.0);
     for md in &m.modules {
@@ -73,13 +103,14 @@ pub fn settle(m: &Assembly, compliance: f64) -> Option<Settled> {
         wx += md.mass * g * x;
         wy += md.mass * g * y;
     }
-    if !(w > 0.0 && compliance > 0.0) || m.contacts.is_empty() {
+    if !(w > 0.0) || m.contacts.is_empty() {
         return None;
     }
-    let pts: Vec<([f64; 2], f64)> = m
+    let pts: Vec<([f64; 2], f64, f64)> = m
         .contacts
         .iter()
-        .map(|k| ([k.point[0], k.point[1]], k.gap.max(0.0)))
+        .map(|k| ([k.point[0], k.point[1]], k.gap.max(0.0), s.of(k)))
+        .filter(|p| p.2 > 0.0 && p.2.is_finite())
         .collect();
     // Active-set iteration: the engaged contacts' springs balance the weight (a 3×3 system);
     // a contact whose sink does not close its gap drops out, one that it closes joins.
@@ -89,7 +120,7 @@ pub fn settle(m: &Assembly, compliance: f64) -> Option<Settled> {
     }
     for _ in 0..4 * pts.len() + 8 {
         let (mut k, mut r) = ([[0.0; 3]; 3], [w, wx, wy]);
-        for ((p, gap), _) in pts.iter().zip(&active).filter(|(_, &a)| a) {
+        for ((p, gap, compliance), _) in pts.iter().zip(&active).filter(|(_, &a)| a) {
             let v = [1.0, p[0], p[1]];
             for i in 0..3 {
                 for j in 0..3 {
@@ -103,13 +134,16 @@ pub fn settle(m: &Assembly, compliance: f64) -> Option<Settled> {
         // centre of mass) and a steep one where they cannot hold the moment at all.
         k[1][1] += 1e-9 * k[0][0];
         k[2][2] += 1e-9 * k[0][0];
-        let s = solve3(k, r)?;
+        let x = solve3(k, r)?;
         let plane = Settled {
-            a: s[0],
-            b: s[1],
-            c: s[2],
+            a: x[0],
+            b: x[1],
+            c: x[2],
         };
-        let next: Vec<bool> = pts.iter().map(|(p, gap)| plane.sink(*p) > *gap).collect();
+        let next: Vec<bool> = pts
+            .iter()
+            .map(|(p, gap, _)| plane.sink(*p) > *gap)
+            .collect();
         if next == active {
             return Some(plane);
         }
@@ -121,19 +155,52 @@ pub fn settle(m: &Assembly, compliance: f64) -> Option<Settled> {
     None
 }
 
-/// `m` with gravity tilted by the pitch and roll of its settling on supports of compliance
-/// `compliance` (m/N, [`settle`]): the settled assembly leans towards its loaded side, which
-/// carries every centre of mass over by its height times that tilt. `m` itself when it cannot
-/// settle.
-pub fn settled_tilt(m: &Assembly, compliance: f64) -> Assembly {
-    let mut out = m.clone();
-    if let Some(s) = settle(m, compliance) {
-        let g = -m.gravity[2];
-        // The sink grows along (b, c): the body leans that way and gravity, seen from it, too.
-        out.gravity[0] += g * s.b;
-        out.gravity[1] += g * s.c;
+/// The first robot of `a` (translated by `offset`, m) that hangs (`hanging`) and whose
+/// settled underside sags at a corner more than `s.max_droop` below the lowest platform top of
+/// `terrain` (the assembly's `level` when lower, m): it has fallen into the gap. `model` is the
+/// assembly's model there, settled with every support as soft as a wheel.
+#[allow(clippy::too_many_arguments)]
+pub fn droop(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    level: f64,
+    offset: [f64; 2],
+    model: &Assembly,
+    hanging: &[bool],
+    s: &Settling,
+) -> Option<usize> {
+    if !hanging.iter().any(|&h| h) {
+        return None;
     }
-    out
+    let plane = settle(model, &s.softest());
+    let lowest = terrain
+        .platforms
+        .iter()
+        .map(|p| p.height)
+        .fold(level, f64::min);
+    a.robots
+        .iter()
+        .zip(hanging)
+        .enumerate()
+        .filter(|(_, (_, &h))| h)
+        .find_map(|(i, (r, _))| {
+            let moved = RobotPose {
+                x: r.x + offset[0],
+                y: r.y + offset[1],
+                ..*r
+            };
+            let [hl, hw] = params.robot(r.kind).geometry.half_extents();
+            let (hl, hw) = (f64::from(hl), f64::from(hw));
+            [[hl, hw], [hl, -hw], [-hl, hw], [-hl, -hw]]
+                .iter()
+                .any(|&c| {
+                    let p = world(&moved, c);
+                    let sag = plane.map_or(f64::INFINITY, |pl| pl.sink(p));
+                    level + s.body_clearance - sag < lowest - s.max_droop
+                })
+                .then_some(i)
+        })
 }
 
 /// Solve the symmetric 3×3 system `k·x = r` (None: singular to working precision).
@@ -164,8 +231,8 @@ fn solve3(k: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
 /// `reach[0]` to `reach[1]` (m) with its settled underside there below that platform's top:
 /// its body meets the platform's edge face. A corner already over the platform passed its
 /// edge higher up and rests on it if it sinks onto it. `level` is the assembly's (m), `model`
-/// its model at `reach[1]`; a model that cannot settle ([`settle`]) leaves every hanging
-/// robot's sag unbounded.
+/// its model at `reach[1]`, settled with every support as soft as a wheel (the larger sag);
+/// a model that cannot settle ([`settle`]) leaves every hanging robot's sag unbounded.
 #[allow(clippy::too_many_arguments)]
 pub fn edge_stall(
     a: &PuzzleAssembly,
@@ -180,7 +247,7 @@ pub fn edge_stall(
     if !hanging.iter().any(|&h| h) {
         return None;
     }
-    let plane = settle(model, s.support_compliance);
+    let plane = settle(model, &s.softest());
     let moved = |r: &RobotPose, o: [f64; 2]| RobotPose {
         x: r.x + o[0],
         y: r.y + o[1],
@@ -210,8 +277,16 @@ pub fn edge_stall(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Contact, Module, Objective};
+    use crate::model::{Module, Objective};
     use std::collections::BTreeMap;
+
+    /// Every contact of the test plates (wheels: they hold friction) 1 mm/N.
+    const MM_PER_N: Settling = Settling {
+        wheel_compliance: 1e-3,
+        caster_compliance: 1e-4,
+        body_clearance: 0.005,
+        max_droop: 0.01,
+    };
 
     fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
         Assembly {
@@ -252,23 +327,16 @@ mod tests {
             ([-1.0, -1.0], 0.0),
         ];
         // 10 N on four springs of 1 mm/N: 2.5 mm each, level.
-        let s = settle(&plate(&sq, [0.0, 0.0]), 1e-3).unwrap();
+        let s = settle(&plate(&sq, [0.0, 0.0]), &MM_PER_N).unwrap();
         assert!((s.a - 2.5e-3).abs() < 1e-9 && s.b.abs() < 1e-9 && s.c.abs() < 1e-9);
         // The weight at x = 0.5: the front springs carry 3.75 N each, the rear 1.25 N.
-        let s = settle(&plate(&sq, [0.5, 0.0]), 1e-3).unwrap();
+        let s = settle(&plate(&sq, [0.5, 0.0]), &MM_PER_N).unwrap();
         assert!((s.sink([1.0, 0.0]) - 3.75e-3).abs() < 1e-9, "{s:?}");
         assert!((s.sink([-1.0, 0.0]) - 1.25e-3).abs() < 1e-9, "{s:?}");
         // Past the front line the rear springs would pull: they lift off, and the front line
         // alone holds it only by tilting without bound.
-        let s = settle(&plate(&sq, [1.2, 0.0]), 1e-3).unwrap();
+        let s = settle(&plate(&sq, [1.2, 0.0]), &MM_PER_N).unwrap();
         assert!(s.b > 1e3, "{s:?}");
-        // Gravity, seen from the settled plate at x = 0.5, leans forward by its pitch.
-        let t = settled_tilt(&plate(&sq, [0.5, 0.0]), 1e-3);
-        assert!(
-            (t.gravity[0] - 10.0 * 1.25e-3).abs() < 1e-9,
-            "{:?}",
-            t.gravity
-        );
     }
 
     #[test]
@@ -276,10 +344,10 @@ mod tests {
         let mut c = vec![([1.0, 1.0], 0.0), ([1.0, -1.0], 0.0), ([-1.0, 1.0], 0.0)];
         c.push(([-1.0, -1.0], 0.0));
         c.push(([0.0, 0.0], 1.0)); // a contact 1 m clear: never reached
-        let s = settle(&plate(&c, [0.0, 0.0]), 1e-3).unwrap();
+        let s = settle(&plate(&c, [0.0, 0.0]), &MM_PER_N).unwrap();
         assert!((s.a - 2.5e-3).abs() < 1e-9);
         c[4].1 = 1e-3; // 1 mm clear: reached
-        let s = settle(&plate(&c, [0.0, 0.0]), 1e-3).unwrap();
+        let s = settle(&plate(&c, [0.0, 0.0]), &MM_PER_N).unwrap();
         // Five springs, one 1 mm clear: 5·a − 1 mm = 10 N · 1 mm/N.
         assert!((s.a - 2.2e-3).abs() < 1e-9, "{s:?}");
     }

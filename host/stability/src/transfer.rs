@@ -9,7 +9,7 @@
 //! before) of the elastic distributions on either side of a support event, in both support
 //! limits of [`SOFT_SUPPORTS`] ([`transfer_limit`]).
 
-use crate::elastic::{distribution_with_gaps, use_of_limits, Compliance};
+use crate::elastic::{distribution_with_supports, use_of_limits, Compliance};
 use crate::model::{Assembly, Resolved};
 use crate::puzzlebot::{AdapterError, LimitedBy};
 use crate::sag::Settling;
@@ -89,8 +89,9 @@ enum Settled {
 /// lower platform (`drops`): on rigid supports its gap stays open unless the hinges close it,
 /// on very soft ones the whole assembly sinks past it, and on supports as soft as tyres the
 /// robots behind pitch forward while the gap stays open, loading the connectors that hold the
-/// overhang most. With `drops` and a [`Settling`], the distributions on supports of that
-/// compliance and a factor √10 either side, gaps kept, are checked as well.
+/// overhang most. With `drops` and a [`Settling`], the distributions on supports of its
+/// compliances (wheels softer than casters) and a factor √10 either side, gaps kept, are
+/// checked as well.
 fn settle(
     m: &Assembly,
     params: &FleetParams,
@@ -102,14 +103,18 @@ fn settle(
     let force = 1.0 / f64::from(c.connector_stiffness);
     // A contact over a lower platform stands clear of it by the drop, a caster by its lift.
     let gaps: Vec<f64> = m.contacts.iter().map(|k| k.gap.max(0.0)).collect();
-    let mut supports = vec![(0.0, true), (SOFT_SUPPORTS * force, false)];
+    // (compliance of a unit support, whether gaps stay, each contact's share of it)
+    let mut supports = vec![(0.0, true, vec![]), (SOFT_SUPPORTS * force, false, vec![])];
     if let Some(s) = settling.filter(|_| drops) {
         let f = 10f64.sqrt();
-        let c = s.support_compliance;
-        supports.extend([(c / f, true), (c, true), (c * f, true)]);
+        let w = s.wheel_compliance;
+        let scale: Vec<f64> = m.contacts.iter().map(|k| s.of(k) / w).collect();
+        for c in [w / f, w, w * f] {
+            supports.push((c, true, scale.clone()));
+        }
     }
     let mut out = Vec::with_capacity(supports.len());
-    for (support, keep_gaps) in supports {
+    for (support, keep_gaps, scale) in supports {
         let compliance = Compliance {
             force,
             couple: 1.0 / f64::from(c.connector_angular_stiffness),
@@ -117,7 +122,7 @@ fn settle(
         };
         // On very soft supports a loaded robot sinks further than any drop it could rest on.
         let gaps: &[f64] = if keep_gaps { &gaps } else { &[] };
-        match distribution_with_gaps(&r, compliance, gaps) {
+        match distribution_with_supports(&r, compliance, gaps, &scale) {
             Ok(Some(w)) => out.push(w),
             Ok(None) => return Ok(Settled::Limited(LimitedBy::Tips)),
             Err(reason) => return Ok(Settled::Limited(LimitedBy::NotProven { reason })),

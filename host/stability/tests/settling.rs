@@ -154,6 +154,6 @@ fn an_assembly_past_its_tipping_line_cannot_settle_level() {
         &puzzlebot_stability::puzzlebot::AdvanceOptions::default(),
     )
     .unwrap();
-    let s = settle(&m, Settling::default().support_compliance).unwrap();
+    let s = settle(&m, &Settling::default()).unwrap();
     assert!(s.b > 0.0, "{s:?}");
 }
