@@ -157,3 +157,18 @@ fn an_assembly_past_its_tipping_line_cannot_settle_level() {
     let s = settle(&m, &Settling::default()).unwrap();
     assert!(s.b > 0.0, "{s:?}");
 }
+
+#[test]
+fn a_hanging_robot_that_sags_past_the_fall_depth_has_fallen() {
+    // A 3 × 3 mesh with a front pilot over a 90 mm gap at 30°: nearing its tipping line on
+    // supports that give, the mesh pitches forward and its front robot's corner sinks more
+    // than 10 mm below the platform top before the rigid-support gate's tipping point (the
+    // 3-D physics, whose wheels give more, counts it fallen after 102.6 mm).
+    let mesh = Shape::Mesh {
+        rows: 3,
+        per_row: 3,
+    };
+    let (_, _, _, settled, rigid) = crossing(mesh, &[0], &obstacle(0.09, 0.0), 30.0);
+    assert!(matches!(settled.limited_by, LimitedBy::Tips), "{settled:?}");
+    assert!(settled.distance < rigid.distance, "{settled:?} {rigid:?}");
+}

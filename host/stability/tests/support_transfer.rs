@@ -103,7 +103,11 @@ fn a_support_lost_loads_the_knob_up_to_twice_the_change() {
     // The gate stops before that event with the undamped transfer, and drives past it on
     // the settled loads alone.
     let advance = |transfer| {
-        let o = AdvanceOptions { transfer, ..aopt };
+        let o = AdvanceOptions {
+            transfer,
+            settling: None,
+            ..aopt
+        };
         max_safe_advance_with(&a, &p, &t, h, 0.005, o).unwrap()
     };
     let settled = advance(None);
