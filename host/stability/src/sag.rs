@@ -103,7 +103,7 @@ pub fn settle(m: &Assembly, s: &Settling) -> Option<Settled> {
         wx += md.mass * g * x;
         wy += md.mass * g * y;
     }
-    if !(w > 0.0) || m.contacts.is_empty() {
+    if w.is_nan() || w <= 0.0 || m.contacts.is_empty() {
         return None;
     }
     let pts: Vec<([f64; 2], f64, f64)> = m
@@ -212,7 +212,7 @@ fn solve3(k: [[f64; 3]; 3], r: [f64; 3]) -> Option<[f64; 3]> {
     };
     let d = det(k);
     let scale = k[0][0] * k[1][1] * k[2][2];
-    if !(d.abs() > 1e-12 * scale.abs()) {
+    if d.is_nan() || d.abs() <= 1e-12 * scale.abs() {
         return None;
     }
     let mut x = [0.0; 3];
