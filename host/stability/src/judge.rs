@@ -69,7 +69,7 @@ pub(crate) fn judge_transfer(
             .zip(driven(after, opt, heading)?),
     );
     for (b, a) in pairs {
-        if let Some(why) = transfer_limit(&b, &a, params, t, opt.settling.as_ref())? {
+        if let Some(why) = transfer_limit(&b, &a, params, t)? {
             return Ok(Some(why));
         }
     }
@@ -84,9 +84,7 @@ fn judge_one(
 ) -> Result<Option<LimitedBy>, AdapterError> {
     let rep = evaluate(m)?;
     Ok(match rep.verdict {
-        Verdict::Stable if opt.elastic && !opt.rigid_couplings => {
-            elastic_limit(m, params, opt.settling.as_ref())?
-        }
+        Verdict::Stable if opt.elastic && !opt.rigid_couplings => elastic_limit(m, params)?,
         Verdict::Stable => None,
         Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
         Verdict::InternalInstability => Some(LimitedBy::Connection {
