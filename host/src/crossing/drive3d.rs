@@ -14,6 +14,7 @@ use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::{
     assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
 };
+use puzzlebot_stability::sag::Settling;
 use serde::Serialize;
 
 /// How the host drives a crossing.
@@ -39,13 +40,20 @@ pub struct CrossSettings {
     pub world: Config3d,
 }
 
-/// Driving speed at which a crossing stays quasi-static (m/s), as the gate assumes (SOCP:
-/// quasi-static stability). When a support rolls off an edge, its load moves onto the
-/// connectors while the contact sinks by the connectors' static deflection under a robot's
-/// weight, δ = m·g / k; a caster of radius r sinks that far over an advance √(2·r·δ). Driven
-/// at this speed, that transfer takes one natural period 2π·√(m / k) of the robot on the
-/// connector springs, so the dynamic overshoot of the load stays within 1/π of its change
-/// (a ramp load on an undamped spring) instead of the twice of a sudden one.
+/// Driving speed at which a crossing stays close to the gate's quasi-static picture (m/s).
+/// When a support rolls off an edge, its load moves onto the connectors while the contact
+/// sinks by the connectors' static deflection under a robot's weight, δ = m·g / k; a caster
+/// of radius r sinks that far over an advance √(2·r·δ). Driven at this speed, that transfer
+/// takes one natural period T = 2π·√(m / k) of one robot on the connector springs. A load
+/// ramped linearly over a time t ≥ T leaves an undamped spring ringing by at most
+/// T / (π·t) ≤ 1/π of the change (none at t = T exactly), against the whole change for a
+/// sudden step. The transfer at an edge is no linear ramp, though: the sink follows the
+/// caster's arc, a parabola in the advance that puts most of the change at its end (a
+/// parabolic ramp over one period leaves 1/π), and the robots around the one that drops add
+/// their mass and lengthen the period. Crossings in the 3-D physics overshoot by up to about
+/// half the change, so the speed lowers the overshoot without bounding it; the gate's check
+/// does not rely on it and bounds the peak by the undamped step's twice the change
+/// (`puzzlebot_stability::transfer::LoadTransfer`).
 pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
     let p = &params.non_pilot;
     let m = f64::from(p.mass.mass);
@@ -59,14 +67,27 @@ pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
 
 /// The planner's options for a crossing driven with `settings`: the gate's proof covers the
 /// drive speeding up to and braking from `settings.speed` along the firmware's reference
-/// response (time constant `firmware.reference_tau_ms`), a = v / τ.
+/// response (time constant `firmware.reference_tau_ms`), a = v / τ; the supports give as the
+/// 3-D world's soft contacts, whose stiffness is m·(2π·f)² for the mass m of the body they
+/// hold at the engine's contact frequency f (a wheel's own, a caster's the chassis'), and the
+/// bodies stand its chassis clearance high.
 pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> CrossingOptions {
     let tau = [&params.pilot, &params.non_pilot]
         .iter()
         .map(|p| 1e-3 * f64::from(p.firmware.reference_tau_ms))
         .fold(f64::INFINITY, f64::min);
+    let w = &settings.world;
+    let per_kg = (std::f64::consts::TAU * w.contact_frequency).powi(2);
+    // A non-pilot's chassis: its mass less its two wheels'.
+    let chassis = f64::from(params.non_pilot.mass.mass) - 2.0 * w.wheel_mass;
     CrossingOptions {
         drive_accel: if tau > 0.0 { settings.speed / tau } else { 0.0 },
+        settling: Some(Settling {
+            wheel_compliance: 1.0 / (w.wheel_mass * per_kg),
+            caster_compliance: 1.0 / (chassis.max(w.wheel_mass) * per_kg),
+            body_clearance: w.chassis_clearance,
+            max_droop: w.fall_depth,
+        }),
         ..CrossingOptions::default()
     }
 }

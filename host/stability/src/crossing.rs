@@ -16,6 +16,7 @@ use crate::puzzlebot::{
     assembly_level, build_model_with, max_safe_advance_with, support_events, AdapterError, Advance,
     AdvanceOptions, LimitedBy, LoadTransfer, Pair, PairKind, PuzzleAssembly, RobotPose, EVENT_EPS,
 };
+use crate::sag::Settling;
 use puzzlebot_params::formation::{self, Link, Shape};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
@@ -42,6 +43,8 @@ pub struct CrossingOptions {
     /// The connectors' response to a sudden change of the support
     /// ([`AdvanceOptions::transfer`]).
     pub transfer: LoadTransfer,
+    /// How the supports give and how high the bodies stand ([`AdvanceOptions::settling`]).
+    pub settling: Option<Settling>,
 }
 
 impl CrossingOptions {
@@ -56,6 +59,7 @@ impl CrossingOptions {
             drive_accel: self.drive_accel,
             max_drop: self.max_drop,
             transfer: Some(self.transfer),
+            settling: self.settling,
             horizon: required + 0.01,
         }
     }
@@ -72,6 +76,7 @@ impl Default for CrossingOptions {
             max_drop: 0.006,
             drive_accel: 0.0,
             transfer: LoadTransfer::default(),
+            settling: Some(Settling::default()),
         }
     }
 }

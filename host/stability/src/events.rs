@@ -18,11 +18,43 @@ pub fn support_events(
     heading: f64,
     horizon: f64,
 ) -> Vec<f64> {
+    let points = assembly.robots.iter().flat_map(|r| {
+        contact_points(r.kind, params)
+            .into_iter()
+            .map(move |(b, _)| world(r, b))
+    });
+    crossings(points, terrain, heading, horizon)
+}
+
+/// Advances in (0, `horizon`] (m) at which a front corner or the front middle of some robot's
+/// body crosses a platform edge of `terrain`, moving along `heading` (rad), ascending: where
+/// a hanging robot's body may reach the platform ahead ([`crate::sag::edge_stall`]).
+pub fn front_events(
+    assembly: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    heading: f64,
+    horizon: f64,
+) -> Vec<f64> {
+    let points = assembly.robots.iter().flat_map(|r| {
+        let [hl, hw] = params.robot(r.kind).geometry.half_extents();
+        let (hl, hw) = (f64::from(hl), f64::from(hw));
+        [[hl, hw], [hl, -hw], [hl, 0.0]].map(|b| world(r, b))
+    });
+    crossings(points, terrain, heading, horizon)
+}
+
+/// Advances in (0, `horizon`] at which one of `points` crosses a platform edge, ascending.
+fn crossings(
+    points: impl Iterator<Item = [f64; 2]>,
+    terrain: &Terrain,
+    heading: f64,
+    horizon: f64,
+) -> Vec<f64> {
     let dir = [heading.cos(), heading.sin()];
     let mut out = Vec::new();
-    for r in &assembly.robots {
-        for (b, _) in contact_points(r.kind, params) {
-            let p = world(r, b);
+    for p in points {
+        {
             for pl in &terrain.platforms {
                 let n = pl.polygon.len();
                 for k in 0..n {

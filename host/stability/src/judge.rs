@@ -69,7 +69,7 @@ pub(crate) fn judge_transfer(
             .zip(driven(after, opt, heading)?),
     );
     for (b, a) in pairs {
-        if let Some(why) = transfer_limit(&b, &a, params, t)? {
+        if let Some(why) = transfer_limit(&b, &a, params, t, opt.settling.as_ref())? {
             return Ok(Some(why));
         }
     }
@@ -84,7 +84,9 @@ fn judge_one(
 ) -> Result<Option<LimitedBy>, AdapterError> {
     let rep = evaluate(m)?;
     Ok(match rep.verdict {
-        Verdict::Stable if opt.elastic && !opt.rigid_couplings => elastic_limit(m, params)?,
+        Verdict::Stable if opt.elastic && !opt.rigid_couplings => {
+            elastic_limit(m, params, opt.settling.as_ref())?
+        }
         Verdict::Stable => None,
         Verdict::WholeBodyInstability => Some(LimitedBy::Tips),
         Verdict::InternalInstability => Some(LimitedBy::Connection {

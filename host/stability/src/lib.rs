@@ -33,6 +33,7 @@ pub mod picture;
 pub mod poe;
 pub mod puzzlebot;
 pub mod range;
+pub mod sag;
 pub mod socp;
 pub mod transfer;
 

@@ -14,12 +14,14 @@
 //!   child; moment limits are the hold force times a lever of half the body height;
 //!   the anchor is free in yaw (THESIS 4.2.2: ±0.5 rad), so its yaw couple is released.
 
+use crate::events::front_events;
 pub use crate::events::support_events;
 pub use crate::judge::judge_model;
 use crate::judge::judge_transfer;
 use crate::model::{
     Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
 };
+use crate::sag::{droop, edge_stall, Settling};
 pub use crate::transfer::{LoadTransfer, SOFT_SUPPORTS};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
@@ -115,6 +117,12 @@ pub struct AdvanceOptions {
     /// event ([`crate::transfer`]) with this response; None: the settled loads only. Needs
     /// `elastic`.
     pub transfer: Option<LoadTransfer>,
+    /// How the supports give and how high the bodies stand ([`crate::sag`]): a robot hanging
+    /// over a gap whose settled underside meets the edge face of the platform ahead stops the
+    /// advance ([`LimitedBy::StepUp`]), and the elastic check covers supports of that
+    /// compliance where a contact stands over a lower platform ([`crate::transfer`]). None:
+    /// neither.
+    pub settling: Option<Settling>,
     /// Search no further than this (m).
     pub horizon: f64,
 }
@@ -130,6 +138,7 @@ impl Default for AdvanceOptions {
             drive_accel: 0.0,
             max_drop: 0.0,
             transfer: None,
+            settling: None,
             horizon: 1.0,
         }
     }
@@ -148,7 +157,8 @@ pub enum LimitedBy {
         /// Pair indices.
         pairs: Vec<usize>,
     },
-    /// A contact would run into a platform higher than the assembly stands on.
+    /// A contact would run into a platform higher than the assembly stands on, or the body of
+    /// a robot hanging over a gap into the edge face of the platform ahead.
     StepUp {
         /// Robot index.
         robot: usize,
@@ -513,6 +523,44 @@ pub fn max_safe_advance_with(
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
         judge_model(&m, params, &opt, heading)
     };
+    // A hanging robot's body running into the platform a front corner reaches between the
+    // advances `lo` and `hi` ([`edge_stall`]).
+    let stall = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        let Some(s) = &opt.settling else {
+            return Ok(None);
+        };
+        let hanging: Vec<bool> = state(hi)
+            .iter()
+            .map(|r| !r.iter().any(|t| matches!(t, Touch::On(..))))
+            .collect();
+        if !hanging.contains(&true) {
+            return Ok(None);
+        }
+        let m = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
+        let reach = [at(lo), at(hi)];
+        Ok(
+            edge_stall(assembly, params, terrain, level, reach, &m, &hanging, s)
+                .map(|robot| LimitedBy::StepUp { robot }),
+        )
+    };
+    // A hanging robot sagging into the gap ([`droop`]).
+    let droops = |d: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        let Some(s) = &opt.settling else {
+            return Ok(None);
+        };
+        let hanging: Vec<bool> = state(d)
+            .iter()
+            .map(|r| !r.iter().any(|t| matches!(t, Touch::On(..))))
+            .collect();
+        if !hanging.contains(&true) {
+            return Ok(None);
+        }
+        let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
+        Ok(
+            droop(assembly, params, terrain, level, at(d), &m, &hanging, s)
+                .map(|_| LimitedBy::Tips),
+        )
+    };
     // The connectors' peak as the support changes between the states at `lo` and `hi`.
     let transfer = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
         if opt.transfer.is_none() {
@@ -540,8 +588,32 @@ pub fn max_safe_advance_with(
     let n = (opt.horizon / step).ceil() as usize;
     checks.extend((1..=n).map(|k| ((k as f64 * step).min(opt.horizon), false)));
     checks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Where a front corner reaches a platform, and whether a hanging robot's body meets its
+    // edge face there.
+    let mut fronts: Vec<f64> = if opt.settling.is_some() {
+        front_events(assembly, params, terrain, heading, opt.horizon)
+    } else {
+        vec![]
+    };
+    fronts.reverse();
     let mut last = 0.0;
     for (d, event) in checks {
+        while fronts.last().is_some_and(|&e| e < d) {
+            let e = fronts.pop().unwrap_or(d);
+            if let Some(why) = stall(e - EVENT_EPS, e + EVENT_EPS)? {
+                return Ok(Advance {
+                    distance: (e - EVENT_EPS).max(last),
+                    limited_by: why,
+                });
+            }
+        }
+        // The sag grows with the advance: the last check before is the answer.
+        if let Some(why) = droops(d)? {
+            return Ok(Advance {
+                distance: last,
+                limited_by: why,
+            });
+        }
         let mut st = state(d);
         if st == cur {
             last = d;

@@ -9,9 +9,10 @@
 //! before) of the elastic distributions on either side of a support event, in both support
 //! limits of [`SOFT_SUPPORTS`] ([`transfer_limit`]).
 
-use crate::elastic::{distribution_with_gaps, use_of_limits, Compliance};
+use crate::elastic::{distribution_with_supports, use_of_limits, Compliance};
 use crate::model::{Assembly, Resolved};
 use crate::puzzlebot::{AdapterError, LimitedBy};
+use crate::sag::Settling;
 use crate::socp::SLOTS;
 use puzzlebot_params::FleetParams;
 
@@ -83,28 +84,61 @@ enum Settled {
 /// distribution and is not known (tyres, printed platforms, a simulator's soft contacts sink
 /// a loaded robot by about a millimetre, where the connectors give a third of that under
 /// their hold force), so both limits are checked.
-fn settle(m: &Assembly, params: &FleetParams) -> Result<Settled, AdapterError> {
+///
+/// Between the limits the loads need not lie between theirs when a contact stands over a
+/// lower platform (`drops`): on rigid supports its gap stays open unless the hinges close it,
+/// on very soft ones the whole assembly sinks past it, and on supports as soft as tyres the
+/// robots behind pitch forward while the gap stays open, loading the connectors that hold the
+/// overhang most. With `drops` and a [`Settling`], the distributions on supports of its
+/// compliances (wheels softer than casters) and a factor √10 either side, gaps kept, are
+/// checked as well.
+fn settle(
+    m: &Assembly,
+    params: &FleetParams,
+    settling: Option<&Settling>,
+    drops: bool,
+) -> Result<Settled, AdapterError> {
     let r = m.resolve()?;
     let c = &params.non_pilot.coupling;
     let force = 1.0 / f64::from(c.connector_stiffness);
     // A contact over a lower platform stands clear of it by the drop, a caster by its lift.
     let gaps: Vec<f64> = m.contacts.iter().map(|k| k.gap.max(0.0)).collect();
-    let mut out = Vec::with_capacity(2);
-    for support in [0.0, SOFT_SUPPORTS * force] {
+    // (compliance of a unit support, whether gaps stay, each contact's share of it)
+    let mut supports = vec![(0.0, true, vec![]), (SOFT_SUPPORTS * force, false, vec![])];
+    if let Some(s) = settling.filter(|_| drops) {
+        let f = 10f64.sqrt();
+        let w = s.wheel_compliance;
+        let scale: Vec<f64> = m.contacts.iter().map(|k| s.of(k) / w).collect();
+        for c in [w / f, w, w * f] {
+            supports.push((c, true, scale.clone()));
+        }
+    }
+    let mut out = Vec::with_capacity(supports.len());
+    for (support, keep_gaps, scale) in supports {
         let compliance = Compliance {
             force,
             couple: 1.0 / f64::from(c.connector_angular_stiffness),
             support,
         };
-        // On soft supports a loaded robot sinks further than any drop it could rest on.
-        let gaps: &[f64] = if support > 0.0 { &[] } else { &gaps };
-        match distribution_with_gaps(&r, compliance, gaps) {
+        // On very soft supports a loaded robot sinks further than any drop it could rest on.
+        let gaps: &[f64] = if keep_gaps { &gaps } else { &[] };
+        match distribution_with_supports(&r, compliance, gaps, &scale) {
             Ok(Some(w)) => out.push(w),
             Ok(None) => return Ok(Settled::Limited(LimitedBy::Tips)),
             Err(reason) => return Ok(Settled::Limited(LimitedBy::NotProven { reason })),
         }
     }
     Ok(Settled::Loads(Box::new(r), out))
+}
+
+/// Some contact of `m` stands over a platform lower than its module's level.
+pub(crate) fn has_drop(m: &Assembly) -> bool {
+    m.contacts.iter().any(|k| {
+        m.modules
+            .iter()
+            .find(|md| md.id == k.module)
+            .is_some_and(|md| k.point[2] < md.position[2] - 1e-6)
+    })
 }
 
 /// The connections whose loads in `w` exceed their limits, as the gate's answer.
@@ -124,8 +158,9 @@ fn over(r: &Resolved, w: &[Vec<[f64; SLOTS]>]) -> Option<LimitedBy> {
 pub(crate) fn elastic_limit(
     m: &Assembly,
     params: &FleetParams,
+    settling: Option<&Settling>,
 ) -> Result<Option<LimitedBy>, AdapterError> {
-    Ok(match settle(m, params)? {
+    Ok(match settle(m, params, settling, has_drop(m))? {
         Settled::Loads(r, w) => over(&r, &w),
         Settled::Limited(why) => Some(why),
     })
@@ -133,16 +168,20 @@ pub(crate) fn elastic_limit(
 
 /// The connections the peak of the load transfer from `before` to `after` (the models on
 /// either side of a support event, same pairs) overloads, in either support limit (`None`:
-/// none). A side without an elastic distribution is the static check's to judge.
+/// none). A side without an elastic distribution is the static check's to judge. `settling`:
+/// the supports' compliance between the limits ([`settle`]).
 pub fn transfer_limit(
     before: &Assembly,
     after: &Assembly,
     params: &FleetParams,
     t: LoadTransfer,
+    settling: Option<&Settling>,
 ) -> Result<Option<LimitedBy>, AdapterError> {
-    let (Settled::Loads(_, b), Settled::Loads(r, f)) =
-        (settle(before, params)?, settle(after, params)?)
-    else {
+    let drops = has_drop(before) || has_drop(after);
+    let (Settled::Loads(_, b), Settled::Loads(r, f)) = (
+        settle(before, params, settling, drops)?,
+        settle(after, params, settling, drops)?,
+    ) else {
         return Ok(None);
     };
     let a = t.amplification();

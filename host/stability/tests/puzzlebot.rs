@@ -94,6 +94,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
         drive_accel: 0.0,
         max_drop: 0.0,
         transfer: None,
+        settling: None,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -147,6 +148,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
         drive_accel: 0.0,
         max_drop: 0.0,
         transfer: None,
+        settling: None,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -210,6 +212,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
             drive_accel: 0.0,
             max_drop: 0.0,
             transfer: None,
+            settling: None,
             horizon: 1.0,
         },
     )

@@ -90,17 +90,24 @@ fn a_support_lost_loads_the_knob_up_to_twice_the_change() {
     let (before, after) = (at(event - EVENT_EPS), at(event + EVENT_EPS));
     let undamped = LoadTransfer { damping_ratio: 0.0 };
     let critical = LoadTransfer { damping_ratio: 1.0 };
-    match transfer_limit(&before, &after, &p, undamped).unwrap() {
+    match transfer_limit(&before, &after, &p, undamped, None).unwrap() {
         Some(LimitedBy::Connection { pairs }) => assert!(pairs.contains(&KNOB_2_5), "{pairs:?}"),
         other => panic!("undamped: {other:?}"),
     }
     // Critically damped: the settled loads, within the limits.
-    assert_eq!(transfer_limit(&before, &after, &p, critical).unwrap(), None);
+    assert_eq!(
+        transfer_limit(&before, &after, &p, critical, None).unwrap(),
+        None
+    );
 
     // The gate stops before that event with the undamped transfer, and drives past it on
     // the settled loads alone.
     let advance = |transfer| {
-        let o = AdvanceOptions { transfer, ..aopt };
+        let o = AdvanceOptions {
+            transfer,
+            settling: None,
+            ..aopt
+        };
         max_safe_advance_with(&a, &p, &t, h, 0.005, o).unwrap()
     };
     let settled = advance(None);
