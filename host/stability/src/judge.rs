@@ -69,7 +69,7 @@ pub(crate) fn judge_transfer(
             .zip(driven(after, opt, heading)?),
     );
     for (b, a) in pairs {
-        if let Some(why) = transfer_limit(&b, &a, params, t, opt.settling.as_ref())? {
+        if let Some(why) = transfer_limit(&b, &a, params, t)? {
             return Ok(Some(why));
         }
     }

@@ -90,15 +90,12 @@ fn a_support_lost_loads_the_knob_up_to_twice_the_change() {
     let (before, after) = (at(event - EVENT_EPS), at(event + EVENT_EPS));
     let undamped = LoadTransfer { damping_ratio: 0.0 };
     let critical = LoadTransfer { damping_ratio: 1.0 };
-    match transfer_limit(&before, &after, &p, undamped, None).unwrap() {
+    match transfer_limit(&before, &after, &p, undamped).unwrap() {
         Some(LimitedBy::Connection { pairs }) => assert!(pairs.contains(&KNOB_2_5), "{pairs:?}"),
         other => panic!("undamped: {other:?}"),
     }
     // Critically damped: the settled loads, within the limits.
-    assert_eq!(
-        transfer_limit(&before, &after, &p, critical, None).unwrap(),
-        None
-    );
+    assert_eq!(transfer_limit(&before, &after, &p, critical).unwrap(), None);
 
     // The gate stops before that event with the undamped transfer, and drives past it on
     // the settled loads alone.
