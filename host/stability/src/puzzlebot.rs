@@ -523,28 +523,10 @@ pub fn max_safe_advance_with(
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
         judge_model(&m, params, &opt, heading)
     };
-    // A hanging robot's body running into the platform a front corner reaches between the
-    // advances `lo` and `hi` ([`edge_stall`]).
-    let stall = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
-        let Some(s) = &opt.settling else {
-            return Ok(None);
-        };
-        let hanging: Vec<bool> = state(hi)
-            .iter()
-            .map(|r| !r.iter().any(|t| matches!(t, Touch::On(..))))
-            .collect();
-        if !hanging.contains(&true) {
-            return Ok(None);
-        }
-        let m = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
-        let reach = [at(lo), at(hi)];
-        Ok(
-            edge_stall(assembly, params, terrain, level, reach, &m, &hanging, s)
-                .map(|robot| LimitedBy::StepUp { robot }),
-        )
-    };
-    // A hanging robot sagging into the gap ([`droop`]).
-    let droops = |d: f64| -> Result<Option<LimitedBy>, AdapterError> {
+    // With settling on and a robot hanging (no wheel or caster on a platform) at advance
+    // `d`: the settling, which robots hang, and the assembly's model there.
+    type Hanging<'s> = Option<(&'s Settling, Vec<bool>, Assembly)>;
+    let hanging_model = |d: f64| -> Result<Hanging, AdapterError> {
         let Some(s) = &opt.settling else {
             return Ok(None);
         };
@@ -556,6 +538,25 @@ pub fn max_safe_advance_with(
             return Ok(None);
         }
         let m = build_model_with(assembly, params, terrain, level, at(d), &opt)?;
+        Ok(Some((s, hanging, m)))
+    };
+    // A hanging robot's body running into the platform a front corner reaches between the
+    // advances `lo` and `hi` ([`edge_stall`]).
+    let stall = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        let Some((s, hanging, m)) = hanging_model(hi)? else {
+            return Ok(None);
+        };
+        let reach = [at(lo), at(hi)];
+        Ok(
+            edge_stall(assembly, params, terrain, level, reach, &m, &hanging, s)
+                .map(|robot| LimitedBy::StepUp { robot }),
+        )
+    };
+    // A hanging robot sagging into the gap ([`droop`]).
+    let droops = |d: f64| -> Result<Option<LimitedBy>, AdapterError> {
+        let Some((s, hanging, m)) = hanging_model(d)? else {
+            return Ok(None);
+        };
         Ok(
             droop(assembly, params, terrain, level, at(d), &m, &hanging, s)
                 .map(|_| LimitedBy::Tips),
