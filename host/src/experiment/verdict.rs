@@ -466,23 +466,25 @@ fn judge(
         } else {
             u64::MAX
         };
-        let pops = |e: &&puzzlebot_sim::SimEvent| match e.kind {
-            SimEventKind::Decoupled { a, b, .. } => {
-                e.t_us > from && e.t_us < to && plan.contains(&unordered(a, b))
-            }
-            _ => false,
-        };
-        out.pops = run.sim_events.iter().filter(pops).count();
-        popped = run.sim_events.iter().find_map(|e| match e.kind {
-            SimEventKind::Decoupled { a, b, .. }
-                if e.t_us > from && e.t_us < to && plan.contains(&unordered(a, b)) =>
-            {
-                Some(format!(
-                    "pair {a}-{b} came apart at t = {:.1} s (formed at {t_fc:.1} s)",
-                    e.t_us.saturating_sub(run.start_us) as f64 * 1e-6
-                ))
-            }
-            _ => None,
+        // Planned pairs that came apart in the ground truth between the two instants.
+        let apart: Vec<(RobotId, RobotId, u64)> = run
+            .sim_events
+            .iter()
+            .filter_map(|e| match e.kind {
+                SimEventKind::Decoupled { a, b, .. }
+                    if e.t_us > from && e.t_us < to && plan.contains(&unordered(a, b)) =>
+                {
+                    Some((a, b, e.t_us))
+                }
+                _ => None,
+            })
+            .collect();
+        out.pops = apart.len();
+        popped = apart.first().map(|&(a, b, t_us)| {
+            format!(
+                "pair {a}-{b} came apart at t = {:.1} s (formed at {t_fc:.1} s)",
+                t_us.saturating_sub(run.start_us) as f64 * 1e-6
+            )
         });
         if popped.is_none() {
             if let Some(x) = plan.difference(&held).next() {
