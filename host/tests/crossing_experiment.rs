@@ -3,7 +3,8 @@
 //! never calls safe an advance at which the physics failed, and re-running the gate's side of
 //! the stored runs gives the same predictions.
 
-use puzzlebot_host::experiment::crossing::{regate, run, CrossingData, Options};
+use puzzlebot_host::experiment::crossing::{run, CrossingData, Options};
+use puzzlebot_host::experiment::crossing_regate::regate;
 use puzzlebot_host::experiment::crossing_report::{render, summarise};
 
 #[test]

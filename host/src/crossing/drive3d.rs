@@ -184,6 +184,8 @@ pub struct CrossOutcome {
     pub crossed: bool,
     /// Advance of the assembly along the heading when it stopped (m).
     pub advance: f64,
+    /// Advance after it stopped and stood for `settle_s` (m): where it came to rest.
+    pub rest_advance: f64,
     /// Simulated time of the drive (s).
     pub drive_s: f64,
     /// Gate checks of the measured poses.
@@ -310,6 +312,7 @@ pub fn cross(
     let mut out = CrossOutcome {
         crossed: false,
         advance: 0.0,
+        rest_advance: 0.0,
         drive_s: 0.0,
         gate_checks: 0,
         gate_stop: None,
@@ -354,6 +357,7 @@ pub fn cross(
     w.command_all(Some([0.0, 0.0]));
     out.drive_s = (w.time_us() - t0) as f64 * 1e-6;
     w.run_for((s.settle_s * 1e6) as u64);
+    out.rest_advance = advance_of(&w.states());
     let knob = f64::from(params.non_pilot.coupling.knob_hold_force);
     out.peak_knob_share = w
         .couplings()

@@ -8,12 +8,14 @@
 //! through the firmware without the gate (the physics alone decides), and the gate's
 //! prediction for the same start stands beside it ([`super::crossing_report`]).
 
+use super::tip_point::{static_tip_point, TipSearch};
 use crate::crossing::drive3d::{self, CrossSettings};
 use crate::crossing::formed::Formed;
 use puzzlebot_params::formation::{self, Shape};
 use puzzlebot_params::terrain::{Platform, Terrain};
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_sim::physics3d::{assembly::jitter, World3d};
+use puzzlebot_sim::Scenario;
 use puzzlebot_stability::crossing::Candidate;
 use puzzlebot_stability::crossing::{formed, pilot_sets, plan_formed, CrossingOptions};
 use puzzlebot_stability::puzzlebot::Advance;
@@ -202,12 +204,26 @@ pub struct CrossRun {
     pub physics_fail: Option<f64>,
     /// What failed first: `fell` or `broke`.
     pub fail_kind: Option<String>,
+    /// The physics' static tipping point (m): the farthest advance at which the assembly,
+    /// driven there and stopped, stands ([`super::tip_point`]); measured in the first run of
+    /// each case of a mesh that fell (a search costs several runs).
+    #[serde(default)]
+    pub physics_tip: Option<f64>,
 }
 
 impl CrossRun {
+    /// The first advance at which the physics failed (m): the static tipping point where
+    /// it was measured, else the advance of the first fall or opened connector.
+    pub fn physics_limit(&self) -> Option<f64> {
+        match (self.physics_tip, self.physics_fail) {
+            (Some(t), Some(f)) => Some(t.min(f)),
+            (t, f) => t.or(f),
+        }
+    }
+
     /// The gate called safe an advance at which the physics failed.
     pub fn gate_overconfident(&self) -> bool {
-        self.physics_fail
+        self.physics_limit()
             .is_some_and(|f| self.gate_advance > f + 1e-3)
     }
 }
@@ -376,6 +392,23 @@ pub fn set_down(cfg: &Config, params: &FleetParams) -> Result<Formed, String> {
     })
 }
 
+/// The 3-D scenario of run `run` of a case: the assembly where `cand` starts, its start
+/// pose jittered from the second run on.
+pub fn run_scenario(
+    formed_asm: &Formed,
+    cand: &Candidate,
+    terrain: &Terrain,
+    params: &FleetParams,
+    seed: u64,
+    run: usize,
+) -> Scenario {
+    let mut s = drive3d::scenario(formed_asm, cand, terrain, params, seed + run as u64);
+    if run > 0 {
+        jitter(&mut s, JITTER.0, JITTER.1);
+    }
+    s
+}
+
 /// Run one case: the gate's prediction once, then `runs` jittered physics runs.
 fn run_case(
     case: &Case,
@@ -391,10 +424,7 @@ fn run_case(
     let settings = settings();
     let mut out = Vec::with_capacity(runs);
     for run in 0..runs {
-        let mut s = drive3d::scenario(&formed_asm, &cand, &terrain, params, seed + run as u64);
-        if run > 0 {
-            jitter(&mut s, JITTER.0, JITTER.1);
-        }
+        let s = run_scenario(&formed_asm, &cand, &terrain, params, seed, run);
         let mut w = World3d::new(&s, settings.world).map_err(|e| e.to_string())?;
         let o = drive3d::cross(&mut w, &cand, &terrain, params, &settings);
         // A robot that dips below the platform and climbs back out (a front pilot) has not
@@ -417,6 +447,13 @@ fn run_case(
             gate_advance: cand.advance.distance,
             gate_limited_by: format!("{:?}", cand.advance.limited_by),
             rigid_advance: rigid.distance,
+            physics_tip: match (physics_fail, fail_kind) {
+                (Some(f), Some("fell")) if cfg.mesh && run == 0 => {
+                    let search = TipSearch::default();
+                    static_tip_point(&s, &cand, &terrain, params, &settings, &search, f)?
+                }
+                _ => None,
+            },
             physics_fail,
             fail_kind: fail_kind.map(str::to_string),
         });
@@ -435,6 +472,14 @@ pub struct CrossingData {
     pub skipped: Vec<String>,
     /// Wall time (s).
     pub wall_s: f64,
+    /// Base seed of the runs.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+/// The seed of data stored before it was recorded: the protocol's.
+fn default_seed() -> u64 {
+    Options::full().seed
 }
 
 /// Run the experiment on `threads` workers; `on_series` after each series of obstacles.
@@ -484,6 +529,7 @@ pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
         runs,
         skipped,
         wall_s: t0.elapsed().as_secs_f64(),
+        seed: opt.seed,
     }
 }
 
@@ -491,93 +537,4 @@ pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
 pub fn series_count(opt: &Options) -> usize {
     let params = FleetParams::default();
     series(opt, &configs(&opt.robots, &params)).len()
-}
-
-/// Re-run the gate's side of stored runs (a `crossing.json` of an earlier run) with the gate
-/// as it is now, keeping the physics' results: the gate against physics without the
-/// simulation's minutes. `on_case` after each case. The error names what does not match.
-pub fn regate(
-    d: &mut CrossingData,
-    threads: usize,
-    on_case: &(dyn Fn() + Sync),
-) -> Result<(), String> {
-    let params = FleetParams::default();
-    let mut robots: Vec<usize> = d.configs.iter().map(|c| c.robots).collect();
-    robots.dedup();
-    let now = configs(&robots, &params);
-    if now.len() != d.configs.len()
-        || now
-            .iter()
-            .zip(&d.configs)
-            .any(|(a, b)| a.shape != b.shape || a.pilot_places != b.pilot_places)
-    {
-        return Err("configs: the stored configurations are not this version's".into());
-    }
-    d.configs = now;
-    let mut keys: Vec<(usize, Obstacle, f64)> = Vec::new();
-    for r in &d.runs {
-        if r.config >= d.configs.len() {
-            return Err(format!("runs[].config: {} out of range", r.config));
-        }
-        let k = (r.config, r.obstacle, r.heading_deg);
-        if !keys.contains(&k) {
-            keys.push(k);
-        }
-    }
-    let threads = match threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    }
-    .min(keys.len().max(1));
-    let next = AtomicUsize::new(0);
-    let out = Mutex::new(vec![None; keys.len()]);
-    let cfgs = &d.configs;
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(c, o, h)) = keys.get(i) else { break };
-                let p = predict(&cfgs[c], o, h, &params);
-                on_case();
-                if let Ok(mut v) = out.lock() {
-                    v[i] = Some(p);
-                }
-            });
-        }
-    });
-    let out = out.into_inner().unwrap_or_default();
-    for r in &mut d.runs {
-        let k = keys
-            .iter()
-            .position(|k| *k == (r.config, r.obstacle, r.heading_deg));
-        match k.and_then(|k| out[k].as_ref()) {
-            Some(Ok((cand, rigid))) => {
-                r.gate_advance = cand.advance.distance;
-                r.gate_limited_by = format!("{:?}", cand.advance.limited_by);
-                r.rigid_advance = rigid.distance;
-            }
-            Some(Err(e)) => return Err(e.clone()),
-            None => return Err("a case was not evaluated".into()),
-        }
-    }
-    Ok(())
-}
-
-/// Number of distinct cases of stored runs (progress bar length of [`regate`]).
-pub fn stored_cases(d: &CrossingData) -> usize {
-    let mut keys: Vec<(usize, u64, u64, u64)> = d
-        .runs
-        .iter()
-        .map(|r| {
-            (
-                r.config,
-                r.obstacle.width.to_bits(),
-                r.obstacle.drop.to_bits(),
-                r.heading_deg.to_bits(),
-            )
-        })
-        .collect();
-    keys.sort_unstable();
-    keys.dedup();
-    keys.len()
 }

@@ -153,7 +153,7 @@ pub fn summarise(d: &CrossingData) -> Summary {
     let tips: Vec<f64> = failed
         .iter()
         .filter(|r| d.configs[r.config].mesh && r.fail_kind.as_deref() == Some("fell"))
-        .filter_map(|r| r.physics_fail.map(|f| (r.rigid_advance - f).abs()))
+        .filter_map(|r| r.physics_limit().map(|f| (r.rigid_advance - f).abs()))
         .collect();
     Summary {
         configs,
@@ -223,8 +223,8 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
     let g = &s.gate;
     t += &format!(
         "\ngate against physics: {} runs, {} failed in the physics; the gate called safe an \
-         advance at which the physics failed in {}; meshes that tipped: {} of {} within 10 mm of \
-         the rigid gate's limit (largest {:.0} mm)\n",
+         advance at which the physics failed in {}; meshes that tipped: {} of {} with the rigid \
+         gate's limit within 10 mm of the physics' static tipping point (largest {:.0} mm)\n",
         g.runs,
         g.failed,
         g.overconfident,
@@ -232,12 +232,13 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
         g.rigid_tips.0,
         g.rigid_tips.2 * 1e3
     );
-    t +=
-        "shape     pilots      gap  drop  θ    run  needed  gate  limited_by        physics_fail\n";
+    t += "shape     pilots      gap  drop  θ    run  needed  gate  rigid  limited_by        \
+          physics_fail      tip\n";
     for r in d.runs.iter().filter(|r| r.physics_fail.is_some()) {
         let c = &d.configs[r.config];
         t += &format!(
-            "{:<9} {:<10} {:>4.0} {:>5.0} {:>3.0}° {:>4} {:>7.0} {:>5.0}  {:<16}  {:.0} mm {}\n",
+            "{:<9} {:<10} {:>4.0} {:>5.0} {:>3.0}° {:>4} {:>7.0} {:>5.0} {:>6.0}  {:<16}  {:>4.0} mm \
+             {:<5} {}\n",
             c.shape,
             c.pilots,
             r.obstacle.width * 1e3,
@@ -246,9 +247,12 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
             r.run,
             r.required * 1e3,
             r.gate_advance * 1e3,
+            r.rigid_advance * 1e3,
             r.gate_limited_by.chars().take(16).collect::<String>(),
             r.physics_fail.unwrap_or(0.0) * 1e3,
-            r.fail_kind.as_deref().unwrap_or("")
+            r.fail_kind.as_deref().unwrap_or(""),
+            r.physics_tip
+                .map_or(String::new(), |t| format!("{:.0} mm", t * 1e3))
         );
     }
     t
@@ -358,8 +362,9 @@ pub fn plot_heading(path: &Path, s: &Summary) -> Res {
     root.present().map_err(e)
 }
 
-/// The gate's proven advance against the advance at which the physics failed, one point per
-/// failed run; below the diagonal the gate stopped short, above it the gate was wrong.
+/// The gate's proven advance against the advance at which the physics failed (its static
+/// tipping point where measured), one point per failed run; below the diagonal the gate
+/// stopped short, above it the gate was wrong.
 pub fn plot_gate(path: &Path, d: &CrossingData) -> Res {
     let root = SVGBackend::new(path, (600, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
@@ -367,7 +372,7 @@ pub fn plot_gate(path: &Path, d: &CrossingData) -> Res {
         .runs
         .iter()
         .filter_map(|r| {
-            r.physics_fail
+            r.physics_limit()
                 .map(|f| (f * 1e3, r.gate_advance * 1e3, d.configs[r.config].mesh))
         })
         .collect();
@@ -380,7 +385,7 @@ pub fn plot_gate(path: &Path, d: &CrossingData) -> Res {
         .build_cartesian_2d(0.0..top, 0.0..top)
         .map_err(e)?;
     ch.configure_mesh()
-        .x_desc("advance at which a robot fell or a connector opened (mm)")
+        .x_desc("advance at which the physics tipped or a connector opened (mm)")
         .y_desc("advance the gate proves safe (mm)")
         .draw()
         .map_err(e)?;
@@ -431,15 +436,25 @@ pub fn command(
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             let mut d: CrossingData = serde_json::from_str(&text)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-            let n = super::crossing::stored_cases(&d);
+            let n = super::crossing_regate::stored_cases(&d);
             let pb = crate::app::progress_bar(n as f64, "cases");
             if !progress {
                 pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
             }
             let t0 = std::time::Instant::now();
-            super::crossing::regate(&mut d, opt.threads, &|| pb.inc(1))
+            super::crossing_regate::regate(&mut d, opt.threads, &|| pb.inc(1))
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             pb.finish_and_clear();
+            let tips = super::crossing_regate::pending_tips(&d);
+            if tips > 0 {
+                let pb = crate::app::progress_bar(tips as f64, "tipping points");
+                if !progress {
+                    pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+                }
+                super::crossing_regate::fill_tips(&mut d, opt.threads, &|| pb.inc(1))
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+                pb.finish_and_clear();
+            }
             d.wall_s = t0.elapsed().as_secs_f64();
             (d, format!("{n} cases"))
         }

@@ -5,8 +5,10 @@
 pub mod assemblies;
 pub mod coupling;
 pub mod crossing;
+pub mod crossing_regate;
 pub mod crossing_report;
 pub mod episode;
+pub mod tip_point;
 pub mod verdict;
 
 pub use coupling::*;
