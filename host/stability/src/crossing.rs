@@ -14,13 +14,20 @@
 use crate::gate::evaluate;
 use crate::puzzlebot::{
     assembly_level, build_model_with, max_safe_advance_with, support_events, AdapterError, Advance,
-    AdvanceOptions, LimitedBy, LoadTransfer, Pair, PairKind, PuzzleAssembly, RobotPose, EVENT_EPS,
+    AdvanceOptions, LimitedBy, LoadTransfer, PuzzleAssembly, EVENT_EPS,
 };
 use crate::sag::Settling;
 use puzzlebot_params::formation::{self, Link, Shape};
 use puzzlebot_params::terrain::Terrain;
-use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_params::FleetParams;
 use serde::Serialize;
+
+mod assembly;
+mod command;
+
+use assembly::place_of;
+pub use assembly::{formed, formed_with, pilot_sets};
+pub use command::{crossing_command, load_terrain, render, CrossingArgs};
 
 /// Planner settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -145,112 +152,6 @@ pub enum PlanError {
     },
 }
 
-/// Pilot index sets of `shape` for `pilots` pilots, one per distinct placement.
-pub fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
-    let (rows, per_row) = shape.rows();
-    if pilots == 0 {
-        return vec![(PilotPlace::None, vec![])];
-    }
-    let fronts: Vec<usize> = (0..rows).map(|r| r * per_row).collect();
-    let backs: Vec<usize> = (0..rows).map(|r| r * per_row + per_row - 1).collect();
-    let pick = |order: Vec<usize>| {
-        let mut s: Vec<usize> = Vec::new();
-        for k in order.into_iter().chain(0..rows * per_row) {
-            if s.len() == pilots {
-                break;
-            }
-            if !s.contains(&k) {
-                s.push(k);
-            }
-        }
-        s.sort_unstable();
-        s
-    };
-    let alternate: Vec<usize> = fronts
-        .iter()
-        .zip(&backs)
-        .flat_map(|(&f, &b)| [f, b])
-        .collect();
-    let mut out: Vec<(PilotPlace, Vec<usize>)> = Vec::new();
-    for (place, order) in [
-        (PilotPlace::Front, [fronts.clone(), backs.clone()].concat()),
-        (PilotPlace::Back, [backs.clone(), fronts.clone()].concat()),
-        (PilotPlace::FrontBack, alternate),
-    ] {
-        if place == PilotPlace::FrontBack && pilots < 2 {
-            continue;
-        }
-        let set = pick(order);
-        if !out.iter().any(|(_, s)| *s == set) {
-            out.push((place, set));
-        }
-    }
-    out
-}
-
-/// The formed assembly of `shape` with pilots `pilots`, its front robot at `front` heading
-/// `yaw`, held by every coupling of its layout ([`formation::layout`]).
-pub fn formed(
-    shape: Shape,
-    pilots: &[usize],
-    params: &FleetParams,
-    front: [f64; 2],
-    yaw: f64,
-) -> PuzzleAssembly {
-    let links = formation::layout(shape, &params.non_pilot.geometry).1;
-    formed_with(shape, pilots, &links, params, front, yaw)
-}
-
-/// [`formed`] held by the couplings `links` only (row-major robot indices, as the layout's):
-/// an assembly as a formation left it, which may have closed fewer knobs than the layout has.
-pub fn formed_with(
-    shape: Shape,
-    pilots: &[usize],
-    links: &[(Link, usize, usize)],
-    params: &FleetParams,
-    front: [f64; 2],
-    yaw: f64,
-) -> PuzzleAssembly {
-    let g = &params.non_pilot.geometry;
-    let at = formation::layout(shape, g).0;
-    let (s, c) = yaw.sin_cos();
-    let robots: Vec<RobotPose> = at
-        .iter()
-        .enumerate()
-        .map(|(k, o)| RobotPose {
-            kind: if pilots.contains(&k) {
-                RobotKind::Pilot
-            } else {
-                RobotKind::NonPilot
-            },
-            x: front[0] + c * o[0] - s * o[1],
-            y: front[1] + s * o[0] + c * o[1],
-            yaw,
-        })
-        .collect();
-    let side = f64::from(g.side_point_x);
-    let half_w = 0.5 * f64::from(g.width);
-    let pairs = links
-        .iter()
-        .map(|&(l, a, b)| match l {
-            Link::Anchor => Pair {
-                a,
-                b,
-                kind: PairKind::Anchor,
-                point: None,
-            },
-            Link::Knob => Pair {
-                a,
-                b,
-                kind: PairKind::Knob,
-                // The side point of `a` nearest `b` (rows offset by half a body).
-                point: Some([(at[b][0] - at[a][0]).clamp(-side, side), half_w]),
-            },
-        })
-        .collect();
-    PuzzleAssembly { robots, pairs }
-}
-
 /// Rank every candidate for `robots` robots with `pilots` pilots crossing from the platform
 /// under (x_start, `start_y`) along +x; best first (crossing, then largest margin).
 pub fn plan(
@@ -313,19 +214,6 @@ pub fn plan_formed(
         }
     }
     ranked(out, opt)
-}
-
-/// Where `pilots` sit in `shape`.
-fn place_of(shape: Shape, pilots: &[usize]) -> PilotPlace {
-    let (_, per_row) = shape.rows();
-    let front = pilots.iter().any(|&k| k % per_row == 0);
-    let back = pilots.iter().any(|&k| k % per_row == per_row - 1);
-    match (pilots.is_empty(), front, back) {
-        (true, _, _) => PilotPlace::None,
-        (_, true, true) if per_row > 1 => PilotPlace::FrontBack,
-        (_, true, _) => PilotPlace::Front,
-        _ => PilotPlace::Back,
-    }
 }
 
 fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanError> {
@@ -500,219 +388,5 @@ fn sampled_margin(
     Ok(worst)
 }
 
-/// Read a terrain file (TOML, `[[platforms]]` tables as in `puzzlebot_params::terrain`) and
-/// check it ([`Terrain::validate_solid`]); errors name the file, line and field.
-pub fn load_terrain(path: &std::path::Path) -> Result<Terrain, PlanError> {
-    let t: Terrain = puzzlebot_params::load::from_toml_file(path)
-        .map_err(|e| PlanError::Input(e.to_string()))?;
-    t.validate_solid().map_err(|e| {
-        // Point at the `[[platforms]]` table of the platform the message names.
-        let index = e
-            .strip_prefix("platforms[")
-            .and_then(|r| r.split(']').next())
-            .and_then(|n| n.parse::<usize>().ok());
-        let text = std::fs::read_to_string(path).unwrap_or_default();
-        let line = index.and_then(|i| {
-            text.lines()
-                .enumerate()
-                .filter(|(_, l)| l.trim_start().starts_with("[[platforms]]"))
-                .nth(i)
-                .map(|(n, _)| n + 1)
-        });
-        match line {
-            Some(n) => PlanError::Input(format!("{}:{n}: {e}", path.display())),
-            None => PlanError::Input(format!("{}: {e}", path.display())),
-        }
-    })?;
-    Ok(t)
-}
-
-/// The command-line arguments of the crossing planner (`puzzlebot plan crossing`,
-/// `puzzlebot-gate crossing`).
-#[derive(Debug, Clone, clap::Args)]
-pub struct CrossingArgs {
-    /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
-    #[arg(long)]
-    pub terrain: std::path::PathBuf,
-    /// Number of robots.
-    #[arg(long)]
-    pub robots: usize,
-    /// Number of pilots among them.
-    #[arg(long, default_value_t = 0)]
-    pub pilots: usize,
-    /// y of the front robot's start (m).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub start_y: f64,
-    /// Acceleration of the drive the proof covers, starting and braking (m/s²; default: the
-    /// host's crossing drive in `puzzlebot plan crossing`, 0 (quasi-static) in
-    /// `puzzlebot-gate crossing`).
-    #[arg(long)]
-    pub drive_accel: Option<f64>,
-    /// Print JSON.
-    #[arg(long)]
-    pub json: bool,
-}
-
-impl CrossingArgs {
-    /// Run the planner: its table (or JSON) as text.
-    pub fn run(&self) -> Result<String, PlanError> {
-        crossing_command(
-            &self.terrain,
-            self.robots,
-            self.pilots,
-            self.start_y,
-            self.drive_accel.unwrap_or(0.0),
-            self.json,
-        )
-    }
-}
-
-/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
-/// proof covering a drive that starts and brakes at `drive_accel` (m/s²).
-pub fn crossing_command(
-    terrain: &std::path::Path,
-    robots: usize,
-    pilots: usize,
-    start_y: f64,
-    drive_accel: f64,
-    json: bool,
-) -> Result<String, PlanError> {
-    if !(drive_accel.is_finite() && drive_accel >= 0.0) {
-        return Err(PlanError::Input(format!(
-            "--drive-accel: must be ≥ 0, got {drive_accel}"
-        )));
-    }
-    let t = load_terrain(terrain)?;
-    let opt = CrossingOptions {
-        start_y,
-        drive_accel,
-        ..CrossingOptions::default()
-    };
-    let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
-    Ok(if json {
-        serde_json::to_string_pretty(&c).map_err(|e| PlanError::Input(e.to_string()))?
-    } else {
-        let best = &c[0];
-        let verdict = if best.crosses() {
-            format!(
-                "best: {} with pilots {:?} at {:.0}° (smallest stability margin {})\n",
-                best.shape,
-                best.pilot_robots,
-                best.heading_deg,
-                best.stability_margin
-                    .map_or("-".to_string(), |m| format!("{m:.3}"))
-            )
-        } else {
-            "no candidate is proven to cross: the host refuses this crossing\n".to_string()
-        };
-        render(&c) + &verdict
-    })
-}
-
-/// The ranking as a table (best first): shape, pilots, heading, α, required advance, the
-/// gate's advance and what limits it, margin, verdict.
-pub fn render(cands: &[Candidate]) -> String {
-    let mut s = String::from(
-        "shape      pilots      heading  alpha  needed_mm  proven_mm  limited_by       margin_mm  stability  verdict\n",
-    );
-    for c in cands {
-        let why = match &c.advance.limited_by {
-            LimitedBy::Horizon => "-".to_string(),
-            LimitedBy::Tips => "tips".to_string(),
-            LimitedBy::Connection { pairs } => format!("pairs {pairs:?}"),
-            LimitedBy::StepUp { robot } => format!("step up r{robot}"),
-            LimitedBy::NotProven { .. } => "not proven".to_string(),
-        };
-        s.push_str(&format!(
-            "{:<10} {:<11} {:>6.0}°  {:>4.1}°  {:>9.1}  {:>9.1}  {:<15}  {:>9.1}  {:>9}  {}\n",
-            c.shape,
-            format!("{:?}{:?}", c.pilots, c.pilot_robots),
-            c.heading_deg,
-            c.diagonal_deg,
-            c.required * 1e3,
-            c.advance.distance * 1e3,
-            why,
-            c.margin * 1e3,
-            c.stability_margin
-                .map_or("-".to_string(), |m| format!("{m:.3}")),
-            if c.crosses() { "crosses" } else { "refused" }
-        ));
-    }
-    s
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use puzzlebot_params::terrain::Platform;
-
-    fn gap(w: f64) -> Terrain {
-        Terrain {
-            platforms: vec![
-                Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.0),
-                Platform::rect("far", [w, -0.5], [w + 1.0, 0.5], 0.0),
-            ],
-        }
-    }
-
-    #[test]
-    fn pilot_places_are_distinct_sets() {
-        let mesh = Shape::Mesh {
-            rows: 2,
-            per_row: 2,
-        };
-        let sets = pilot_sets(mesh, 1);
-        assert_eq!(
-            sets,
-            vec![(PilotPlace::Front, vec![0]), (PilotPlace::Back, vec![1])]
-        );
-        assert_eq!(
-            pilot_sets(Shape::Line(3), 0),
-            vec![(PilotPlace::None, vec![])]
-        );
-        // A line has one front and one back: two pilots sit there whichever way.
-        assert_eq!(pilot_sets(Shape::Line(3), 2).len(), 1);
-        assert_eq!(pilot_sets(mesh, 2).len(), 3);
-    }
-
-    #[test]
-    fn a_single_robot_cannot_cross_what_a_mesh_can() {
-        let p = FleetParams::default();
-        let opt = CrossingOptions {
-            headings: vec![0.0, 0.7],
-            ..CrossingOptions::default()
-        };
-        // 40 mm on equal heights: one robot tips into it, a 2 x 2 mesh is carried across.
-        let lone = plan(&gap(0.04), &p, 1, 0, &opt).unwrap();
-        assert!(lone.iter().all(|c| !c.crosses()), "{}", render(&lone));
-        let four = plan(&gap(0.04), &p, 4, 1, &opt).unwrap();
-        assert!(four[0].crosses(), "{}", render(&four));
-        assert!(four.iter().any(|c| c.shape == "mesh 2x2" && c.crosses()));
-        // A bad terrain file is refused naming file, line and field.
-        let dir = std::env::temp_dir().join(format!("crossing-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let f = dir.join("t.toml");
-        std::fs::write(
-            &f,
-            "[[platforms]]\npolygon = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]\n\n\
-             [[platforms]]\npolygon = [[0.5, 0.0], [2.0, 0.0], [2.0, 1.0], [0.5, 1.0]]\n",
-        )
-        .unwrap();
-        let e = load_terrain(&f).unwrap_err().to_string();
-        assert!(
-            e.ends_with(":4: platforms[1].polygon: overlaps platforms[0] (\"\" and \"\")"),
-            "{e}"
-        );
-        std::fs::write(
-            &f,
-            "[[platforms]]\npolygon = [[0.0, 0.0]]\nheight = \"x\"\n",
-        )
-        .unwrap();
-        let e = load_terrain(&f).unwrap_err().to_string();
-        assert!(e.contains("t.toml:3:"), "{e}");
-        std::fs::remove_dir_all(&dir).ok();
-        // Bad input is refused with the reason.
-        let e = plan(&gap(0.04), &p, 2, 3, &opt).unwrap_err().to_string();
-        assert!(e.contains("--pilots"), "{e}");
-    }
-}
+mod tests;

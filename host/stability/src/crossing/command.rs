@@ -1,0 +1,147 @@
+//! Terrain files and the planner's command line: its arguments, its run and its table.
+
+use super::{plan, Candidate, CrossingOptions, PlanError};
+use crate::puzzlebot::LimitedBy;
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::FleetParams;
+
+/// Read a terrain file (TOML, `[[platforms]]` tables as in `puzzlebot_params::terrain`) and
+/// check it ([`Terrain::validate_solid`]); errors name the file, line and field.
+pub fn load_terrain(path: &std::path::Path) -> Result<Terrain, PlanError> {
+    let t: Terrain = puzzlebot_params::load::from_toml_file(path)
+        .map_err(|e| PlanError::Input(e.to_string()))?;
+    t.validate_solid().map_err(|e| {
+        // Point at the `[[platforms]]` table of the platform the message names.
+        let index = e
+            .strip_prefix("platforms[")
+            .and_then(|r| r.split(']').next())
+            .and_then(|n| n.parse::<usize>().ok());
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let line = index.and_then(|i| {
+            text.lines()
+                .enumerate()
+                .filter(|(_, l)| l.trim_start().starts_with("[[platforms]]"))
+                .nth(i)
+                .map(|(n, _)| n + 1)
+        });
+        match line {
+            Some(n) => PlanError::Input(format!("{}:{n}: {e}", path.display())),
+            None => PlanError::Input(format!("{}: {e}", path.display())),
+        }
+    })?;
+    Ok(t)
+}
+
+/// The command-line arguments of the crossing planner (`puzzlebot plan crossing`,
+/// `puzzlebot-gate crossing`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct CrossingArgs {
+    /// Terrain file (TOML `[[platforms]]`: polygon, height, friction).
+    #[arg(long)]
+    pub terrain: std::path::PathBuf,
+    /// Number of robots.
+    #[arg(long)]
+    pub robots: usize,
+    /// Number of pilots among them.
+    #[arg(long, default_value_t = 0)]
+    pub pilots: usize,
+    /// y of the front robot's start (m).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub start_y: f64,
+    /// Acceleration of the drive the proof covers, starting and braking (m/s²; default: the
+    /// host's crossing drive in `puzzlebot plan crossing`, 0 (quasi-static) in
+    /// `puzzlebot-gate crossing`).
+    #[arg(long)]
+    pub drive_accel: Option<f64>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl CrossingArgs {
+    /// Run the planner: its table (or JSON) as text.
+    pub fn run(&self) -> Result<String, PlanError> {
+        crossing_command(
+            &self.terrain,
+            self.robots,
+            self.pilots,
+            self.start_y,
+            self.drive_accel.unwrap_or(0.0),
+            self.json,
+        )
+    }
+}
+
+/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
+/// proof covering a drive that starts and brakes at `drive_accel` (m/s²).
+pub fn crossing_command(
+    terrain: &std::path::Path,
+    robots: usize,
+    pilots: usize,
+    start_y: f64,
+    drive_accel: f64,
+    json: bool,
+) -> Result<String, PlanError> {
+    if !(drive_accel.is_finite() && drive_accel >= 0.0) {
+        return Err(PlanError::Input(format!(
+            "--drive-accel: must be ≥ 0, got {drive_accel}"
+        )));
+    }
+    let t = load_terrain(terrain)?;
+    let opt = CrossingOptions {
+        start_y,
+        drive_accel,
+        ..CrossingOptions::default()
+    };
+    let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
+    Ok(if json {
+        serde_json::to_string_pretty(&c).map_err(|e| PlanError::Input(e.to_string()))?
+    } else {
+        let best = &c[0];
+        let verdict = if best.crosses() {
+            format!(
+                "best: {} with pilots {:?} at {:.0}° (smallest stability margin {})\n",
+                best.shape,
+                best.pilot_robots,
+                best.heading_deg,
+                best.stability_margin
+                    .map_or("-".to_string(), |m| format!("{m:.3}"))
+            )
+        } else {
+            "no candidate is proven to cross: the host refuses this crossing\n".to_string()
+        };
+        render(&c) + &verdict
+    })
+}
+
+/// The ranking as a table (best first): shape, pilots, heading, α, required advance, the
+/// gate's advance and what limits it, margin, verdict.
+pub fn render(cands: &[Candidate]) -> String {
+    let mut s = String::from(
+        "shape      pilots      heading  alpha  needed_mm  proven_mm  limited_by       margin_mm  stability  verdict\n",
+    );
+    for c in cands {
+        let why = match &c.advance.limited_by {
+            LimitedBy::Horizon => "-".to_string(),
+            LimitedBy::Tips => "tips".to_string(),
+            LimitedBy::Connection { pairs } => format!("pairs {pairs:?}"),
+            LimitedBy::StepUp { robot } => format!("step up r{robot}"),
+            LimitedBy::NotProven { .. } => "not proven".to_string(),
+        };
+        s.push_str(&format!(
+            "{:<10} {:<11} {:>6.0}°  {:>4.1}°  {:>9.1}  {:>9.1}  {:<15}  {:>9.1}  {:>9}  {}\n",
+            c.shape,
+            format!("{:?}{:?}", c.pilots, c.pilot_robots),
+            c.heading_deg,
+            c.diagonal_deg,
+            c.required * 1e3,
+            c.advance.distance * 1e3,
+            why,
+            c.margin * 1e3,
+            c.stability_margin
+                .map_or("-".to_string(), |m| format!("{m:.3}")),
+            if c.crosses() { "crosses" } else { "refused" }
+        ));
+    }
+    s
+}

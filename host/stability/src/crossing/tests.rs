@@ -1,0 +1,74 @@
+//! Tests of `crossing`.
+
+use super::*;
+use puzzlebot_params::terrain::Platform;
+
+fn gap(w: f64) -> Terrain {
+    Terrain {
+        platforms: vec![
+            Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.0),
+            Platform::rect("far", [w, -0.5], [w + 1.0, 0.5], 0.0),
+        ],
+    }
+}
+
+#[test]
+fn pilot_places_are_distinct_sets() {
+    let mesh = Shape::Mesh {
+        rows: 2,
+        per_row: 2,
+    };
+    let sets = pilot_sets(mesh, 1);
+    assert_eq!(
+        sets,
+        vec![(PilotPlace::Front, vec![0]), (PilotPlace::Back, vec![1])]
+    );
+    assert_eq!(
+        pilot_sets(Shape::Line(3), 0),
+        vec![(PilotPlace::None, vec![])]
+    );
+    // A line has one front and one back: two pilots sit there whichever way.
+    assert_eq!(pilot_sets(Shape::Line(3), 2).len(), 1);
+    assert_eq!(pilot_sets(mesh, 2).len(), 3);
+}
+
+#[test]
+fn a_single_robot_cannot_cross_what_a_mesh_can() {
+    let p = FleetParams::default();
+    let opt = CrossingOptions {
+        headings: vec![0.0, 0.7],
+        ..CrossingOptions::default()
+    };
+    // 40 mm on equal heights: one robot tips into it, a 2 x 2 mesh is carried across.
+    let lone = plan(&gap(0.04), &p, 1, 0, &opt).unwrap();
+    assert!(lone.iter().all(|c| !c.crosses()), "{}", render(&lone));
+    let four = plan(&gap(0.04), &p, 4, 1, &opt).unwrap();
+    assert!(four[0].crosses(), "{}", render(&four));
+    assert!(four.iter().any(|c| c.shape == "mesh 2x2" && c.crosses()));
+    // A bad terrain file is refused naming file, line and field.
+    let dir = std::env::temp_dir().join(format!("crossing-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("t.toml");
+    std::fs::write(
+        &f,
+        "[[platforms]]\npolygon = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]\n\n\
+         [[platforms]]\npolygon = [[0.5, 0.0], [2.0, 0.0], [2.0, 1.0], [0.5, 1.0]]\n",
+    )
+    .unwrap();
+    let e = load_terrain(&f).unwrap_err().to_string();
+    assert!(
+        e.ends_with(":4: platforms[1].polygon: overlaps platforms[0] (\"\" and \"\")"),
+        "{e}"
+    );
+    std::fs::write(
+        &f,
+        "[[platforms]]\npolygon = [[0.0, 0.0]]\nheight = \"x\"\n",
+    )
+    .unwrap();
+    let e = load_terrain(&f).unwrap_err().to_string();
+    assert!(e.contains("t.toml:3:"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+    // Bad input is refused with the reason.
+    let e = plan(&gap(0.04), &p, 2, 3, &opt).unwrap_err().to_string();
+    assert!(e.contains("--pilots"), "{e}");
+}
