@@ -10,13 +10,17 @@ use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::{Event3d, World3d};
 use puzzlebot_sim::Scenario;
-use puzzlebot_stability::crossing::Candidate;
+use puzzlebot_stability::crossing::{Candidate, CrossingOptions};
 
 /// How the tipping point is searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TipSearch {
     /// Resolution of the search (m of advance).
     pub resolution: f64,
+    /// Step of the scan for the first stop that falls (m): a window narrower than this in
+    /// which a stopped assembly falls, between two in which it stands, can be missed. The
+    /// gate's own scan step.
+    pub scan: f64,
     /// Standing time after the stop in which a fall counts (s). A centre of mass δ past the
     /// support line tips with the time constant τ = √((r² + k²) / (g·r)) of a body pivoting
     /// at distance r from its centre with radius of gyration k (about 0.1 s for a robot's
@@ -29,6 +33,7 @@ impl Default for TipSearch {
     fn default() -> Self {
         TipSearch {
             resolution: 0.001,
+            scan: CrossingOptions::default().step,
             hold_s: 2.0,
         }
     }
@@ -62,11 +67,11 @@ fn probe(
     Ok((fell, o.rest_advance))
 }
 
-/// The farthest advance (m) at which the run of `scenario` along `cand`, driven with `base`
-/// and stopped, stands without a robot falling; `fell_at` is the advance at which the
-/// driven run reported its first fall (the search's upper end). Probes step back from
-/// `fell_at` by doubling distances until one stands, then bisect to `search.resolution`.
-/// `None` when the assembly falls even stopped at once.
+/// The physics' static tipping point of the run of `scenario` along `cand`, driven with
+/// `base`: the rest advance (m) of the farthest stop that stands before the first stop at
+/// which a robot falls. `fell_at` is the advance at which the driven run reported its first
+/// fall: the stops scan up to it every `search.scan`, and the first that falls is located
+/// by bisection to `search.resolution`. `None` when the assembly falls even stopped at once.
 pub fn static_tip_point(
     scenario: &Scenario,
     cand: &Candidate,
@@ -77,35 +82,32 @@ pub fn static_tip_point(
     fell_at: f64,
 ) -> Result<Option<f64>, String> {
     let res = search.resolution.max(1e-4);
+    let scan = search.scan.max(res);
     let run = |d: f64| probe(scenario, cand, terrain, params, base, search, d);
-    // `hi`: a stop advance that falls; `lo`: one that stands, with its rest advance.
-    let mut hi = fell_at;
-    let mut back = 2.0 * res;
-    let mut lo: Option<(f64, f64)> = None;
-    while lo.is_none() {
-        let d = (fell_at - back).max(0.0);
-        let (fell, rest) = run(d)?;
-        if fell {
-            if d <= 0.0 {
-                return Ok(None);
-            }
-            hi = d;
-            back *= 2.0;
-        } else {
-            lo = Some((d, rest));
-        }
-    }
-    let Some((mut lo_d, mut rest)) = lo else {
+    // `lo`: a stop that stands, with its rest advance; `hi`: the first stop found to fall.
+    let (fell, rest) = run(0.0)?;
+    if fell {
         return Ok(None);
-    };
-    while hi - lo_d > res {
-        let mid = 0.5 * (lo_d + hi);
+    }
+    let (mut lo, mut rest) = (0.0, rest);
+    let mut hi = fell_at;
+    let mut d = scan;
+    while d < fell_at {
+        let (fell, r) = run(d)?;
+        if fell {
+            hi = d;
+            break;
+        }
+        (lo, rest) = (d, r);
+        d += scan;
+    }
+    while hi - lo > res {
+        let mid = 0.5 * (lo + hi);
         let (fell, r) = run(mid)?;
         if fell {
             hi = mid;
         } else {
-            lo_d = mid;
-            rest = r;
+            (lo, rest) = (mid, r);
         }
     }
     Ok(Some(rest))
