@@ -221,10 +221,17 @@ impl CrossRun {
         }
     }
 
-    /// The gate called safe an advance at which the physics failed.
+    /// The gate called safe an advance at which the driven run failed.
     pub fn gate_overconfident(&self) -> bool {
-        self.physics_limit()
+        self.physics_fail
             .is_some_and(|f| self.gate_advance > f + 1e-3)
+    }
+
+    /// The gate called safe an advance past the physics' static tipping point (where
+    /// measured): stopped there, the assembly falls.
+    pub fn gate_past_tip(&self) -> bool {
+        self.physics_tip
+            .is_some_and(|t| self.gate_advance > t + 1e-3)
     }
 }
 

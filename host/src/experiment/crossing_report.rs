@@ -67,8 +67,10 @@ pub struct GateSummary {
     pub runs: usize,
     /// Runs in which a robot fell or a connector opened.
     pub failed: usize,
-    /// Runs in which the gate called safe an advance at which the physics failed.
+    /// Runs in which the gate called safe an advance at which the driven run failed.
     pub overconfident: usize,
+    /// Runs in which the gate called safe an advance past the physics' static tipping point.
+    pub past_tip: usize,
     /// Mesh runs that tipped: how many, how many with the rigid gate within 10 mm, largest
     /// distance (m).
     pub rigid_tips: (usize, usize, f64),
@@ -161,6 +163,7 @@ pub fn summarise(d: &CrossingData) -> Summary {
             runs: d.runs.len(),
             failed: failed.len(),
             overconfident: d.runs.iter().filter(|r| r.gate_overconfident()).count(),
+            past_tip: d.runs.iter().filter(|r| r.gate_past_tip()).count(),
             rigid_tips: (
                 tips.len(),
                 tips.iter().filter(|&&e| e <= 0.010).count(),
@@ -223,11 +226,13 @@ pub fn render(s: &Summary, d: &CrossingData) -> String {
     let g = &s.gate;
     t += &format!(
         "\ngate against physics: {} runs, {} failed in the physics; the gate called safe an \
-         advance at which the physics failed in {}; meshes that tipped: {} of {} with the rigid \
-         gate's limit within 10 mm of the physics' static tipping point (largest {:.0} mm)\n",
+         advance at which the driven run failed in {}, and past the static tipping point in {}; \
+         meshes that tipped: {} of {} with the rigid gate's limit within 10 mm of the physics' \
+         static tipping point (largest {:.0} mm)\n",
         g.runs,
         g.failed,
         g.overconfident,
+        g.past_tip,
         g.rigid_tips.1,
         g.rigid_tips.0,
         g.rigid_tips.2 * 1e3
