@@ -186,6 +186,8 @@ pub struct CrossOutcome {
     pub advance: f64,
     /// Advance after it stopped and stood for `settle_s` (m): where it came to rest.
     pub rest_advance: f64,
+    /// Farthest advance it reached, the run-out after the stop included (m).
+    pub peak_advance: f64,
     /// Simulated time of the drive (s).
     pub drive_s: f64,
     /// Gate checks of the measured poses.
@@ -313,6 +315,7 @@ pub fn cross(
         crossed: false,
         advance: 0.0,
         rest_advance: 0.0,
+        peak_advance: 0.0,
         drive_s: 0.0,
         gate_checks: 0,
         gate_stop: None,
@@ -356,8 +359,13 @@ pub fn cross(
     }
     w.command_all(Some([0.0, 0.0]));
     out.drive_s = (w.time_us() - t0) as f64 * 1e-6;
-    w.run_for((s.settle_s * 1e6) as u64);
-    out.rest_advance = advance_of(&w.states());
+    let t_stop = w.time_us();
+    out.peak_advance = out.advance;
+    while w.time_us() < t_stop + (s.settle_s * 1e6) as u64 {
+        w.run_for(tick_us);
+        out.rest_advance = advance_of(&w.states());
+        out.peak_advance = out.peak_advance.max(out.rest_advance);
+    }
     let knob = f64::from(params.non_pilot.coupling.knob_hold_force);
     out.peak_knob_share = w
         .couplings()

@@ -40,7 +40,7 @@ impl Default for TipSearch {
 }
 
 /// One probe: drive the run's assembly `d` forward, stop, hold. Whether a robot fell, and
-/// the advance at which the assembly came to rest (m).
+/// the farthest advance the assembly reached, its run-out after the stop included (m).
 fn probe(
     scenario: &Scenario,
     cand: &Candidate,
@@ -64,12 +64,12 @@ fn probe(
     let mut w = World3d::new(scenario, settings.world).map_err(|e| e.to_string())?;
     let o = drive3d::cross(&mut w, &to_d, terrain, params, &settings);
     let fell = w.events().iter().any(|e| matches!(e, Event3d::Fell { .. }));
-    Ok((fell, o.rest_advance))
+    Ok((fell, o.peak_advance))
 }
 
 /// The physics' static tipping point of the run of `scenario` along `cand`, driven with
-/// `base`: the rest advance (m) of the farthest stop that stands before the first stop at
-/// which a robot falls. `fell_at` is the advance at which the driven run reported its first
+/// `base`: the farthest advance (m) a stop reached, run-out included, and stood, before the
+/// first stop at which a robot falls. `fell_at` is the advance at which the driven run reported its first
 /// fall: the stops scan up to it every `search.scan`, and the first that falls is located
 /// by bisection to `search.resolution`. `None` when the assembly falls even stopped at once.
 pub fn static_tip_point(
@@ -84,12 +84,12 @@ pub fn static_tip_point(
     let res = search.resolution.max(1e-4);
     let scan = search.scan.max(res);
     let run = |d: f64| probe(scenario, cand, terrain, params, base, search, d);
-    // `lo`: a stop that stands, with its rest advance; `hi`: the first stop found to fall.
-    let (fell, rest) = run(0.0)?;
+    // `lo`: a stop that stands, with its farthest advance; `hi`: the first stop found to fall.
+    let (fell, reach) = run(0.0)?;
     if fell {
         return Ok(None);
     }
-    let (mut lo, mut rest) = (0.0, rest);
+    let (mut lo, mut reach) = (0.0, reach);
     let mut hi = fell_at;
     let mut d = scan;
     while d < fell_at {
@@ -98,7 +98,7 @@ pub fn static_tip_point(
             hi = d;
             break;
         }
-        (lo, rest) = (d, r);
+        (lo, reach) = (d, r);
         d += scan;
     }
     while hi - lo > res {
@@ -107,8 +107,8 @@ pub fn static_tip_point(
         if fell {
             hi = mid;
         } else {
-            (lo, rest) = (mid, r);
+            (lo, reach) = (mid, r);
         }
     }
-    Ok(Some(rest))
+    Ok(Some(reach))
 }
