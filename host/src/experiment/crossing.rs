@@ -9,6 +9,7 @@
 //! prediction for the same start stands beside it ([`super::crossing_report`]).
 
 use super::tip_point::{static_tip_point, TipSearch};
+use super::workers::map_parallel;
 use crate::crossing::drive3d::{self, CrossSettings};
 use crate::crossing::formed::Formed;
 use puzzlebot_params::formation::{self, Shape};
@@ -21,8 +22,6 @@ use puzzlebot_stability::crossing::{formed, pilot_sets, plan_formed, CrossingOpt
 use puzzlebot_stability::puzzlebot::Advance;
 use puzzlebot_stability::puzzlebot::{max_safe_advance_with, AdvanceOptions};
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Height difference of THESIS 3.5.3's gaps (m): the far platform 6 mm lower.
 pub const GAP_DROP: f64 = 0.006;
@@ -495,28 +494,17 @@ pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
     let configs = configs(&opt.robots, &params);
     let all = series(opt, &configs);
     let t0 = std::time::Instant::now();
-    let threads = match opt.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
+    let done = map_parallel(
+        &all,
+        opt.threads,
+        &|se| run_series(se, &configs[se.config], opt, &params),
+        on_series,
+    );
+    let (mut runs, mut skipped) = (Vec::new(), Vec::new());
+    for (r, k) in done {
+        runs.extend(r);
+        skipped.extend(k);
     }
-    .min(all.len().max(1));
-    let next = AtomicUsize::new(0);
-    let results = Mutex::new((Vec::new(), Vec::new()));
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(se) = all.get(i) else { break };
-                let (r, skipped) = run_series(se, &configs[se.config], opt, &params);
-                on_series();
-                if let Ok(mut acc) = results.lock() {
-                    acc.0.extend(r);
-                    acc.1.extend(skipped);
-                }
-            });
-        }
-    });
-    let (mut runs, skipped) = results.into_inner().unwrap_or_default();
     runs.sort_by(|a, b| {
         (
             a.config,

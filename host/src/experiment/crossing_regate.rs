@@ -4,9 +4,8 @@
 
 use super::crossing::{configs, predict, run_scenario, set_down, settings, CrossingData, Obstacle};
 use super::tip_point::{static_tip_point, TipSearch};
+use super::workers::map_parallel;
 use puzzlebot_params::FleetParams;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Re-run the gate's side of stored runs (a `crossing.json` of an earlier run) with the gate
 /// as it is now, keeping the physics' results: the gate against physics without the
@@ -39,33 +38,18 @@ pub fn regate(
             keys.push(k);
         }
     }
-    let threads = match threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    }
-    .min(keys.len().max(1));
-    let next = AtomicUsize::new(0);
-    let out = Mutex::new(vec![None; keys.len()]);
     let cfgs = &d.configs;
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(c, o, h)) = keys.get(i) else { break };
-                let p = predict(&cfgs[c], o, h, &params);
-                on_case();
-                if let Ok(mut v) = out.lock() {
-                    v[i] = Some(p);
-                }
-            });
-        }
-    });
-    let out = out.into_inner().unwrap_or_default();
+    let out = map_parallel(
+        &keys,
+        threads,
+        &|&(c, o, h)| predict(&cfgs[c], o, h, &params),
+        on_case,
+    );
     for r in &mut d.runs {
         let k = keys
             .iter()
             .position(|k| *k == (r.config, r.obstacle, r.heading_deg));
-        match k.and_then(|k| out[k].as_ref()) {
+        match k.and_then(|k| out.get(k)) {
             Some(Ok((cand, rigid))) => {
                 r.gate_advance = cand.advance.distance;
                 r.gate_limited_by = format!("{:?}", cand.advance.limited_by);
@@ -123,28 +107,9 @@ pub fn fill_tips(
     let todo: Vec<usize> = (0..d.runs.len())
         .filter(|&i| needs_tip(d, &d.runs[i]))
         .collect();
-    let threads = match threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    }
-    .min(todo.len().max(1));
-    let next = AtomicUsize::new(0);
-    let out = Mutex::new(Vec::with_capacity(todo.len()));
     let data = &*d;
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| loop {
-                let k = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&i) = todo.get(k) else { break };
-                let tip = tip_of(data, i, &params);
-                on_run();
-                if let Ok(mut v) = out.lock() {
-                    v.push((i, tip));
-                }
-            });
-        }
-    });
-    for (i, tip) in out.into_inner().unwrap_or_default() {
+    let tips = map_parallel(&todo, threads, &|&i| tip_of(data, i, &params), on_run);
+    for (&i, tip) in todo.iter().zip(tips) {
         d.runs[i].physics_tip = tip.map_err(|e| format!("runs[{i}]: {e}"))?;
     }
     Ok(())

@@ -10,5 +10,6 @@ pub mod crossing_report;
 pub mod episode;
 pub mod tip_point;
 pub mod verdict;
+pub mod workers;
 
 pub use coupling::*;
