@@ -1,6 +1,7 @@
 //! Tests of the contact and coupling mechanics.
 
 use super::*;
+use crate::math::Pose;
 
 fn body(x: f64, y: f64, yaw: f64) -> Body {
     Body::new(Pose::new(x, y, yaw), 0.1, 4.5e-5)
