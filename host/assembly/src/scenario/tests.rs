@@ -1,6 +1,8 @@
 //! Tests of `scenario`.
 
 use super::*;
+use puzzlebot_params::geometry::Geometry;
+use std::path::Path;
 
 const GOOD: &str = r#"
 name = "demo"
