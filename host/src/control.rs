@@ -7,6 +7,9 @@
 //! Also here: reference trajectories (line, circle) and a trajectory-following
 //! controller (the demo's behaviour until assemblies land; THESIS 5.26 is the MPC version).
 
+mod tracker;
+mod trajectory;
+
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -14,12 +17,13 @@ use puzzlebot_params::{RobotKind, RobotParams};
 use puzzlebot_protocol::{messages::RobotId, HostMsg};
 use serde::Serialize;
 
-use crate::drive::{
-    wrap_angle, DriveMap, PoseSample, Stabiliser, StabiliserGains, Twist, VelocityEstimator,
-};
+use crate::drive::{DriveMap, PoseSample, Stabiliser, StabiliserGains, Twist, VelocityEstimator};
 use crate::link::FleetLink;
 use crate::pose::PoseTable;
 use crate::report::RunFolder;
+
+pub use tracker::{track, TrackerGains, TrajectoryFollower};
+pub use trajectory::{Path, RefState, Trajectory};
 
 /// What a controller sees of one robot.
 #[derive(Debug, Clone, Copy)]
@@ -97,247 +101,6 @@ pub enum HandRequest {
 
 /// A simulated fleet's hand: does a [`HandRequest`] in the simulator.
 pub type Hand = Box<dyn FnMut(&HandRequest) + Send>;
-
-/// A reference path with a trapezoidal speed profile.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub enum Path {
-    /// Straight segment from `start` along `heading` (rad) for `length` m.
-    Line {
-        /// Start point (m).
-        start: [f64; 2],
-        /// Heading (rad).
-        heading: f64,
-        /// Length (m).
-        length: f64,
-    },
-    /// Full circle of `radius` about `center`, starting at angle `phase` (rad), CCW if `ccw`.
-    Circle {
-        /// Centre (m).
-        center: [f64; 2],
-        /// Radius (m).
-        radius: f64,
-        /// Start angle on the circle (rad).
-        phase: f64,
-        /// Counter-clockwise.
-        ccw: bool,
-    },
-}
-
-/// A reference state: position, heading, speed and turn rate.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct RefState {
-    /// Position x (m).
-    pub x: f64,
-    /// Position y (m).
-    pub y: f64,
-    /// Heading (rad).
-    pub theta: f64,
-    /// Speed (m/s).
-    pub v: f64,
-    /// Turn rate (rad/s).
-    pub omega: f64,
-}
-
-/// A path driven with a trapezoidal speed profile (accelerate, cruise, brake).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Trajectory {
-    /// The path.
-    pub path: Path,
-    /// Cruise speed (m/s).
-    pub speed: f64,
-    /// Acceleration (m/s²).
-    pub accel: f64,
-}
-
-impl Path {
-    /// Length (m).
-    pub fn length(&self) -> f64 {
-        match *self {
-            Path::Line { length, .. } => length,
-            Path::Circle { radius, .. } => 2.0 * std::f64::consts::PI * radius,
-        }
-    }
-
-    /// Pose at arc length `s`; curvature.
-    fn at(&self, s: f64) -> ([f64; 3], f64) {
-        match *self {
-            Path::Line { start, heading, .. } => (
-                [
-                    start[0] + s * heading.cos(),
-                    start[1] + s * heading.sin(),
-                    heading,
-                ],
-                0.0,
-            ),
-            Path::Circle {
-                center,
-                radius,
-                phase,
-                ccw,
-            } => {
-                let dir = if ccw { 1.0 } else { -1.0 };
-                let a = phase + dir * s / radius;
-                (
-                    [
-                        center[0] + radius * a.cos(),
-                        center[1] + radius * a.sin(),
-                        wrap_angle(a + dir * std::f64::consts::FRAC_PI_2),
-                    ],
-                    dir / radius,
-                )
-            }
-        }
-    }
-
-    /// Start pose [x, y, θ].
-    pub fn start_pose(&self) -> [f64; 3] {
-        self.at(0.0).0
-    }
-}
-
-impl Trajectory {
-    /// Total duration (s).
-    pub fn duration(&self) -> f64 {
-        let len = self.path.length();
-        let ta = self.speed / self.accel;
-        let da = 0.5 * self.accel * ta * ta;
-        if 2.0 * da >= len {
-            2.0 * (len / self.accel).sqrt()
-        } else {
-            2.0 * ta + (len - 2.0 * da) / self.speed
-        }
-    }
-
-    /// Reference at time `t` (held at the end after the duration).
-    pub fn at(&self, t: f64) -> RefState {
-        let len = self.path.length();
-        let a = self.accel;
-        let total = self.duration();
-        let vpk = self.speed.min((a * len).sqrt());
-        let ta = vpk / a;
-        let t = t.clamp(0.0, total);
-        let (s, v) = if t < ta {
-            (0.5 * a * t * t, a * t)
-        } else if t > total - ta {
-            let r = total - t;
-            (len - 0.5 * a * r * r, a * r)
-        } else {
-            (0.5 * a * ta * ta + vpk * (t - ta), vpk)
-        };
-        let (p, kappa) = self.path.at(s);
-        RefState {
-            x: p[0],
-            y: p[1],
-            theta: p[2],
-            v,
-            omega: v * kappa,
-        }
-    }
-}
-
-/// Gains of the trajectory tracker.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct TrackerGains {
-    /// Along-track gain (1/s).
-    pub k_x: f64,
-    /// Cross-track natural frequency (rad/s).
-    pub omega_n: f64,
-    /// Cross-track damping ratio.
-    pub zeta: f64,
-}
-
-impl Default for TrackerGains {
-    fn default() -> Self {
-        TrackerGains {
-            k_x: 3.0,
-            omega_n: 3.0,
-            zeta: 0.9,
-        }
-    }
-}
-
-/// Kanayama-style unicycle tracking with reference feed-forward; cross-track gains are
-/// scheduled on the reference speed so the error dynamics keep their natural frequency.
-pub fn track(reference: RefState, pose: PoseSample, g: TrackerGains) -> Twist {
-    let (dx, dy) = (reference.x - pose.x, reference.y - pose.y);
-    let (s, c) = pose.theta.sin_cos();
-    let ex = c * dx + s * dy;
-    let ey = -s * dx + c * dy;
-    let eth = wrap_angle(reference.theta - pose.theta);
-    let vr = reference.v.abs().max(0.02);
-    let v = reference.v * eth.cos() + g.k_x * ex;
-    let omega = reference.omega
-        + g.omega_n * g.omega_n / vr * ey * reference.v.signum().max(0.0)
-        + 2.0 * g.zeta * g.omega_n * eth.sin();
-    Twist::new(v, omega)
-}
-
-/// Each robot follows its own trajectory.
-#[derive(Debug, Clone)]
-pub struct TrajectoryFollower {
-    /// Trajectory per robot.
-    pub plans: BTreeMap<RobotId, Trajectory>,
-    /// Gains.
-    pub gains: TrackerGains,
-    /// Extra time after the longest trajectory before [`Controller::done`] (s).
-    pub settle: f64,
-    t0: Option<f64>,
-}
-
-impl TrajectoryFollower {
-    /// A follower for `plans`.
-    pub fn new(plans: BTreeMap<RobotId, Trajectory>) -> Self {
-        TrajectoryFollower {
-            plans,
-            gains: TrackerGains::default(),
-            settle: 0.5,
-            t0: None,
-        }
-    }
-
-    /// Longest trajectory (s).
-    pub fn duration(&self) -> f64 {
-        self.plans
-            .values()
-            .map(Trajectory::duration)
-            .fold(0.0, f64::max)
-    }
-}
-
-impl Controller for TrajectoryFollower {
-    fn name(&self) -> &str {
-        "trajectory"
-    }
-
-    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
-        let t0 = *self.t0.get_or_insert(view.t);
-        let t = view.t - t0;
-        let mut out = BTreeMap::new();
-        for r in &view.robots {
-            if let (Some(plan), Some(pose)) = (self.plans.get(&r.id), r.pose) {
-                let rf = plan.at(t);
-                let cmd = if t >= plan.duration() + self.settle {
-                    Twist::ZERO
-                } else {
-                    track(rf, pose, self.gains)
-                };
-                out.insert(r.id, cmd);
-            }
-        }
-        out
-    }
-
-    fn reference(&self, id: RobotId, t: f64) -> Option<[f64; 2]> {
-        self.plans.get(&id).map(|p| {
-            let r = p.at(t);
-            [r.x, r.y]
-        })
-    }
-
-    fn done(&self, t: f64) -> bool {
-        t >= self.duration() + self.settle
-    }
-}
 
 /// Settings of one run of the control loop.
 #[derive(Debug, Clone)]
@@ -720,63 +483,4 @@ impl DriveMap {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn trajectory_profile_reaches_the_end_with_feed_forward() {
-        let tr = Trajectory {
-            path: Path::Circle {
-                center: [0.0, 0.0],
-                radius: 0.1,
-                phase: -std::f64::consts::FRAC_PI_2,
-                ccw: true,
-            },
-            speed: 0.05,
-            accel: 0.1,
-        };
-        let d = tr.duration();
-        assert!(
-            (d - (2.0 * std::f64::consts::PI * 0.1 / 0.05 + 0.5)).abs() < 1e-9,
-            "{d}"
-        );
-        let s0 = tr.at(0.0);
-        assert!((s0.x - 0.0).abs() < 1e-12 && (s0.y + 0.1).abs() < 1e-12 && s0.theta.abs() < 1e-12);
-        let mid = tr.at(d / 2.0);
-        assert!((mid.omega - 0.5).abs() < 1e-9 && (mid.v - 0.05).abs() < 1e-9);
-        let end = tr.at(d + 1.0);
-        assert!(end.v.abs() < 1e-12 && (end.y + 0.1).abs() < 1e-9);
-    }
-
-    #[test]
-    fn tracker_converges_on_an_ideal_unicycle() {
-        let tr = Trajectory {
-            path: Path::Line {
-                start: [0.0, 0.0],
-                heading: 0.3,
-                length: 0.4,
-            },
-            speed: 0.06,
-            accel: 0.1,
-        };
-        // Start 1 cm off the line and 0.1 rad off heading.
-        let mut p = PoseSample {
-            t: 0.0,
-            x: 0.0,
-            y: 0.01,
-            theta: 0.4,
-        };
-        let dt = 1.0 / 30.0;
-        let mut err = 0.0;
-        while p.t < tr.duration() {
-            let u = track(tr.at(p.t), p, TrackerGains::default());
-            p.x += u.v * p.theta.cos() * dt;
-            p.y += u.v * p.theta.sin() * dt;
-            p.theta += u.omega * dt;
-            p.t += dt;
-            let r = tr.at(p.t);
-            err = ((r.x - p.x).powi(2) + (r.y - p.y).powi(2)).sqrt();
-        }
-        assert!(err < 1e-3, "final error {err}");
-    }
-}
+mod tests;
