@@ -155,6 +155,20 @@ pub fn settle(m: &Assembly, s: &Settling) -> Option<Settled> {
     None
 }
 
+/// The sag (m, positive down) at a world point of `model` settled with every support as soft
+/// as a wheel (infinite where no support can carry it); `None` when no robot `hanging`.
+fn hanging_sag(
+    model: &Assembly,
+    hanging: &[bool],
+    s: &Settling,
+) -> Option<impl Fn([f64; 2]) -> f64> {
+    if !hanging.contains(&true) {
+        return None;
+    }
+    let plane = settle(model, &s.softest());
+    Some(move |p: [f64; 2]| plane.map_or(f64::INFINITY, |pl| pl.sink(p)))
+}
+
 /// The first robot of `a` (translated by `offset`, m) that hangs (`hanging`) and whose
 /// settled underside sags at a corner more than `s.max_droop` below the lowest platform top of
 /// `terrain` (the assembly's `level` when lower, m): it has fallen into the gap. `model` is the
@@ -170,10 +184,7 @@ pub fn droop(
     hanging: &[bool],
     s: &Settling,
 ) -> Option<usize> {
-    if !hanging.iter().any(|&h| h) {
-        return None;
-    }
-    let plane = settle(model, &s.softest());
+    let sag_at = hanging_sag(model, hanging, s)?;
     let lowest = terrain
         .platforms
         .iter()
@@ -196,7 +207,7 @@ pub fn droop(
                 .iter()
                 .any(|&c| {
                     let p = world(&moved, c);
-                    let sag = plane.map_or(f64::INFINITY, |pl| pl.sink(p));
+                    let sag = sag_at(p);
                     level + s.body_clearance - sag < lowest - s.max_droop
                 })
                 .then_some(i)
@@ -244,10 +255,7 @@ pub fn edge_stall(
     hanging: &[bool],
     s: &Settling,
 ) -> Option<usize> {
-    if !hanging.iter().any(|&h| h) {
-        return None;
-    }
-    let plane = settle(model, &s.softest());
+    let sag_at = hanging_sag(model, hanging, s)?;
     let moved = |r: &RobotPose, o: [f64; 2]| RobotPose {
         x: r.x + o[0],
         y: r.y + o[1],
@@ -268,7 +276,7 @@ pub fn edge_stall(
                 if before.is_some_and(|(hb, _)| hb == h) {
                     return None;
                 }
-                let sag = plane.map_or(f64::INFINITY, |pl| pl.sink(p));
+                let sag = sag_at(p);
                 (h > level + s.body_clearance - sag).then_some(i)
             })
         })
