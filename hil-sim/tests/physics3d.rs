@@ -183,6 +183,8 @@ fn a_four_robot_mesh_with_a_pilot_crosses_40_mm_and_5_mm() {
 fn cantilever(n: usize, hold: f32) -> World3d {
     let mut params = FleetParams::default();
     params.non_pilot.coupling.knob_hold_force = hold;
+    // Knobs without play: the load comes on without an impact at the hooks.
+    params.non_pilot.coupling.knob_play = 0.0;
     let robots = (0..n)
         .map(|k| RobotSpec {
             id: k as u16 + 1,
@@ -209,13 +211,7 @@ fn cantilever(n: usize, hold: f32) -> World3d {
         params,
         ..Scenario::default()
     };
-    // Knobs without play: the load comes on without an impact at the hooks.
-    let cfg = Config3d {
-        knob_play: 0.0,
-
-        ..Config3d::default()
-    };
-    let mut w = World3d::new(&s, cfg).unwrap();
+    let mut w = World3d::new(&s, Config3d::default()).unwrap();
     w.pin(1);
     w.run_for(800_000);
     w

@@ -21,6 +21,7 @@ use puzzlebot_stability::elastic;
 use puzzlebot_stability::puzzlebot::{
     assembly_level, build_model_with, max_safe_advance_with, AdvanceOptions, LoadTransfer,
 };
+use puzzlebot_stability::sag::settle_articulated;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
@@ -176,13 +177,26 @@ fn main() {
             continue;
         }
         let mut line = format!("t {:7.3} d {:6.2}", w.time_us() as f64 * 1e-6, d * 1e3);
-        for (r, p0) in st.iter().zip(&start) {
+        // The gate's settling of the assembly as planned there: each robot's sink at its
+        // centre and its pitch.
+        let off = [dir[0] * d, dir[1] * d];
+        let gm = build_model_with(&planned, &params, &terrain, level, off, &aopt).expect("model");
+        let sag = aopt
+            .settling
+            .and_then(|s| settle_articulated(&gm, &s.softest()));
+        for (i, (r, p0)) in st.iter().zip(&start).enumerate() {
+            let (gz, gp) = sag.as_ref().map_or((f64::NAN, f64::NAN), |sg| {
+                let c = [planned.robots[i].x + off[0], planned.robots[i].y + off[1]];
+                (-sg.sink(i, c), sg.tilt(i)[1])
+            });
             line += &format!(
-                " | x{:6.1} z{:5.2} p{:5.1} r{:5.1}",
+                " | x{:6.1} z{:5.2} p{:5.1} r{:5.1} gz{:5.2} gp{:5.1}",
                 r.position[0] * 1e3,
                 (r.position[2] - p0[2]) * 1e3,
                 r.rpy[1].to_degrees(),
-                r.rpy[0].to_degrees()
+                r.rpy[0].to_degrees(),
+                gz * 1e3,
+                gp.to_degrees()
             );
         }
         line += " ||";

@@ -40,6 +40,9 @@ pub struct Coupling {
     /// A knob clicks in when the two side faces are within this gap (m): the knob's hooks
     /// (THESIS 2.4.1: 1.5 mm hook width).
     pub knob_seat_gap: f32,
+    /// Vertical play of a knob in its hole (m). THESIS 2.3.2: knobs are 1 mm lower than
+    /// holes.
+    pub knob_play: f32,
     /// Force one knob holds (N). THESIS 5.5.3: ≥ 3.2 N (sensor limit).
     pub knob_hold_force: f32,
     /// Push force of one robot at top speed (N). THESIS 4.4.1, 5.5.2: 0.5–0.72.
@@ -66,6 +69,7 @@ impl Default for Coupling {
             knob_align_tolerance: 0.001,
             knob_yaw_tolerance: 0.04,
             knob_seat_gap: 0.0015,
+            knob_play: 0.001,
             knob_hold_force: 3.2,
             robot_push_force: 0.5,
             connector_stiffness: 1.0e4,
@@ -97,6 +101,16 @@ pub struct KnobProbe {
 }
 
 impl Coupling {
+    /// Tilt a knob allows about the shared face before its hooks catch (rad): the play over
+    /// the knob across the knob and its hook (THESIS 2.4.1, Fig 2.11: the 1.5 mm hook
+    /// `knob_seat_gap` behind the `geometry.knob_length` knob blocks the tilt). An estimate:
+    /// THESIS measures the angle (Fig 2.13) without giving the geometry behind it.
+    #[cfg(feature = "std")]
+    pub fn knob_tilt_limit(&self, g: &Geometry) -> f64 {
+        let lever = f64::from(g.knob_length) + f64::from(self.knob_seat_gap);
+        (f64::from(self.knob_play) / lever.max(1e-4)).atan()
+    }
+
     /// Depth of the anchor head inside the opening when seated (m): how far the head stands
     /// behind its robot's back face (`Geometry::anchor_head` vs the body length).
     pub fn anchor_depth(g: &Geometry) -> f64 {

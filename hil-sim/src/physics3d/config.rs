@@ -21,8 +21,6 @@ pub struct Config3d {
     pub chassis_clearance: f64,
     /// Friction coefficient of the printed chassis on a platform. Not in THESIS; 0.3.
     pub chassis_friction: f64,
-    /// Vertical play of a knob in its hole (m). THESIS 2.3.2: knobs are 1 mm lower than holes.
-    pub knob_play: f64,
     /// Height of the anchor and knobs above the ground (m); as the gate: the centre of mass
     /// height (`geometry.com_height`).
     pub coupling_height_from_com: bool,
@@ -61,7 +59,6 @@ impl Default for Config3d {
             caster_radius: 0.004,
             chassis_clearance: 0.005,
             chassis_friction: 0.3,
-            knob_play: 0.001,
             coupling_height_from_com: true,
             anchor_damping: 1e-3,
             wheel_rest_speed: 0.5,
@@ -94,7 +91,6 @@ impl Config3d {
         let nonneg = [
             ("chassis_clearance", self.chassis_clearance),
             ("chassis_friction", self.chassis_friction),
-            ("knob_play", self.knob_play),
             ("anchor_damping", self.anchor_damping),
             ("wheel_rest_speed", self.wheel_rest_speed),
             ("break_after", self.break_after),
@@ -115,15 +111,6 @@ impl Config3d {
             return Err("physics3d config solver_iterations: must be ≥ 1".into());
         }
         Ok(())
-    }
-
-    /// Tilt a knob allows before its hooks catch (rad): the play over the knob plus its hook
-    /// (THESIS 2.4.1, Fig 2.11: the 1.5 mm hook `coupling.knob_seat_gap` behind the
-    /// `geometry.knob_length` knob blocks the tilt). An estimate: THESIS measures the angle
-    /// (Fig 2.13) without giving the geometry behind it.
-    pub fn knob_tilt_limit(&self, p: &RobotParams) -> f64 {
-        let lever = f64::from(p.geometry.knob_length) + f64::from(p.coupling.knob_seat_gap);
-        (self.knob_play / lever.max(1e-4)).atan()
     }
 
     /// Height of the couplings above the robot's ground plane (m).

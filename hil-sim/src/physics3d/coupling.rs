@@ -6,7 +6,7 @@
 //!   up/down and roll are held.
 //! * Knob (THESIS 2.3.2, 2.4.1): robot `a`'s left knob in robot `b`'s right hole; rigid except
 //!   a tilt about the shared face up to the angle at which the hooks catch
-//!   ([`Config3d::knob_tilt_limit`]).
+//!   (`Coupling::knob_tilt_limit`).
 //!
 //! Every axis is a stiff spring (engine joint motors, solved implicitly) that engages outside
 //! the axis' free range: held axes have an empty range, free axes are slack inside their
@@ -118,7 +118,7 @@ pub fn knob(p: &RobotParams, cfg: &Config3d, a: Pose, b: Pose) -> JointGeom {
     let w = a.apply(on_a);
     let on_b = b.inverse_apply(w);
     let rel = crate::math::wrap(a.yaw - b.yaw);
-    let tilt = cfg.knob_tilt_limit(p);
+    let tilt = p.coupling.knob_tilt_limit(g);
     let stiffness = springs(&p.coupling);
     let mut range = [[0.0; 2]; 6];
     range[3] = [-tilt, tilt];

@@ -10,14 +10,20 @@
 //! platform's edge face and stalls, and the robots behind push it until a connector opens.
 //! The gate calls such an advance unprovable ([`edge_stall`]).
 //!
-//! The settling is that of one rigid body (the connectors are far stiffer than the supports)
-//! on a linear spring at every contact, each engaging once its sink has closed the contact's
-//! gap (a lifted caster, a lower platform) and carrying no pull ([`settle`]).
+//! The settling ([`settle_articulated`]) takes every robot as a rigid body on a one-sided
+//! linear spring at each of its contacts (engaging once its sink has closed the contact's gap:
+//! a lifted caster, a lower platform), joined by the connectors' springs, each free about the
+//! axis the gate releases (an anchor's pitch, a knob's tilt about the shared face) up to its
+//! limit: a robot hanging on such couplings swings about them. [`settle`] is the same for the
+//! assembly as one rigid body.
 
 use crate::model::{Assembly, Contact};
 use crate::puzzlebot::{world, PuzzleAssembly, RobotPose};
 use puzzlebot_params::terrain::Terrain;
-use puzzlebot_params::FleetParams;
+use puzzlebot_params::{FleetParams, RobotParams};
+
+mod articulated;
+pub use articulated::{settle_articulated, Sag};
 
 /// How the supports give and how high the bodies stand above them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +40,17 @@ pub struct Settling {
     /// How far a hanging robot's underside may sag below the lowest platform top before it
     /// counts as fallen (m): the 3-D physics' 10 mm.
     pub max_droop: f64,
+    /// Stiffness of a connector's held translations (N/m): `coupling.connector_stiffness`.
+    pub connector_stiffness: f64,
+    /// Stiffness of a connector's held rotations (N·m/rad):
+    /// `coupling.connector_angular_stiffness`.
+    pub connector_angular_stiffness: f64,
+    /// How far a released anchor pitches freely (rad): THESIS 4.2.2's ±0.5 rad
+    /// (`coupling.anchor_yaw_range`, the same beams).
+    pub anchor_pitch_range: f64,
+    /// How far a released knob tilts freely about the shared face (rad):
+    /// [`puzzlebot_params::coupling::Coupling::knob_tilt_limit`].
+    pub knob_tilt_range: f64,
 }
 
 impl Default for Settling {
@@ -43,6 +60,7 @@ impl Default for Settling {
             caster_compliance: 3e-4,
             body_clearance: 0.005,
             max_droop: 0.01,
+            ..Settling::couplings(&FleetParams::default().non_pilot)
         }
     }
 }
@@ -66,6 +84,22 @@ impl Settled {
 }
 
 impl Settling {
+    /// Rigid supports (no sink) under couplings of robots `p`: their stiffness and free
+    /// ranges from the parameter set; clearance and fall depth as [`Settling::default`].
+    pub fn couplings(p: &RobotParams) -> Settling {
+        let c = &p.coupling;
+        Settling {
+            wheel_compliance: 0.0,
+            caster_compliance: 0.0,
+            body_clearance: 0.005,
+            max_droop: 0.01,
+            connector_stiffness: f64::from(c.connector_stiffness),
+            connector_angular_stiffness: f64::from(c.connector_angular_stiffness),
+            anchor_pitch_range: f64::from(c.anchor_yaw_range),
+            knob_tilt_range: c.knob_tilt_limit(&p.geometry),
+        }
+    }
+
     /// Every support as soft as the softer of wheel and caster: the sag a hanging robot may
     /// reach (stiffer casters would only lessen it).
     pub fn softest(&self) -> Settling {
@@ -155,18 +189,20 @@ pub fn settle(m: &Assembly, s: &Settling) -> Option<Settled> {
     None
 }
 
-/// The sag (m, positive down) at a world point of `model` settled with every support as soft
-/// as a wheel (infinite where no support can carry it); `None` when no robot `hanging`.
+/// The sag (m, positive down) of robot `i` at a world point, `model` settled with every
+/// support as soft as a wheel and its couplings free where the gate releases them
+/// ([`settle_articulated`]; infinite where nothing can carry it); `None` when no robot
+/// `hanging`.
 fn hanging_sag(
     model: &Assembly,
     hanging: &[bool],
     s: &Settling,
-) -> Option<impl Fn([f64; 2]) -> f64> {
+) -> Option<impl Fn(usize, [f64; 2]) -> f64> {
     if !hanging.contains(&true) {
         return None;
     }
-    let plane = settle(model, &s.softest());
-    Some(move |p: [f64; 2]| plane.map_or(f64::INFINITY, |pl| pl.sink(p)))
+    let sag = settle_articulated(model, &s.softest());
+    Some(move |i: usize, p: [f64; 2]| sag.as_ref().map_or(f64::INFINITY, |sg| sg.sink(i, p)))
 }
 
 /// The first robot of `a` (translated by `offset`, m) that hangs (`hanging`) and whose
@@ -207,7 +243,7 @@ pub fn droop(
                 .iter()
                 .any(|&c| {
                     let p = world(&moved, c);
-                    let sag = sag_at(p);
+                    let sag = sag_at(i, p);
                     level + s.body_clearance - sag < lowest - s.max_droop
                 })
                 .then_some(i)
@@ -276,7 +312,7 @@ pub fn edge_stall(
                 if before.is_some_and(|(hb, _)| hb == h) {
                     return None;
                 }
-                let sag = sag_at(p);
+                let sag = sag_at(i, p);
                 (h > level + s.body_clearance - sag).then_some(i)
             })
         })
@@ -294,6 +330,10 @@ mod tests {
         caster_compliance: 1e-4,
         body_clearance: 0.005,
         max_droop: 0.01,
+        connector_stiffness: 1e4,
+        connector_angular_stiffness: 10.0,
+        anchor_pitch_range: 0.5,
+        knob_tilt_range: 0.2,
     };
 
     fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
