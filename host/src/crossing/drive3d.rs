@@ -87,6 +87,7 @@ pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> Cross
             caster_compliance: 1.0 / (chassis.max(w.wheel_mass) * per_kg),
             body_clearance: w.chassis_clearance,
             max_droop: w.fall_depth,
+            chassis_friction: w.chassis_friction,
             ..Settling::couplings(&params.non_pilot)
         }),
         ..CrossingOptions::default()

@@ -2,7 +2,7 @@
 //! platform edge, where the support topology (and the gate's model of a rigid translation)
 //! changes and the loads jump.
 
-use crate::puzzlebot::{contact_points, world, PuzzleAssembly};
+use crate::puzzlebot::{body_corners, contact_points, world, PuzzleAssembly};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 
@@ -41,6 +41,23 @@ pub fn front_events(
         let (hl, hw) = (f64::from(hl), f64::from(hw));
         [[hl, hw], [hl, -hw], [hl, 0.0]].map(|b| world(r, b))
     });
+    crossings(points, terrain, heading, horizon)
+}
+
+/// Advances in (0, `horizon`] (m) at which a corner of some robot's underside crosses a
+/// platform edge of `terrain`, moving along `heading` (rad), ascending: where the platform a
+/// robot may come to rest on changes ([`crate::sag::resting_bodies`]).
+pub fn body_events(
+    assembly: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    heading: f64,
+    horizon: f64,
+) -> Vec<f64> {
+    let points = assembly
+        .robots
+        .iter()
+        .flat_map(|r| body_corners(r.kind, params).map(|b| world(r, b)));
     crossings(points, terrain, heading, horizon)
 }
 

@@ -19,7 +19,7 @@ pub use crate::judge::judge_model;
 use crate::model::{
     Assembly, Connection, ConnectorSpec, Contact, Limits6, Module, Objective, Vec3,
 };
-use crate::sag::Settling;
+use crate::sag::{resting_bodies, Settling};
 pub use crate::transfer::{LoadTransfer, SOFT_SUPPORTS};
 pub use advance::{max_safe_advance, max_safe_advance_with, EVENT_EPS};
 
@@ -446,7 +446,7 @@ pub fn build_model_with(
             x_axis: Some([0.0, 0.0, 1.0]),
         });
     }
-    Ok(Assembly {
+    let mut m = Assembly {
         gravity: [0.0, 0.0, -9.81],
         modules,
         connectors,
@@ -455,5 +455,66 @@ pub fn build_model_with(
         module_contacts: vec![],
         loads: vec![],
         objective: Objective::default(),
-    })
+    };
+    if let Some(s) = &opt.settling {
+        let bodies = body_contacts(a, params, terrain, level, offset, s);
+        if let Some(rests) = resting_bodies(&m, s, &bodies) {
+            m.contacts.extend(
+                bodies
+                    .into_iter()
+                    .zip(rests)
+                    .filter(|(_, r)| *r)
+                    .map(|(b, _)| b),
+            );
+        }
+    }
+    Ok(m)
+}
+
+/// The underside corners of every robot over a platform it could come to rest on (below its
+/// underside at `level`), as contacts of the chassis' friction on that platform
+/// ([`Settling::chassis_friction`], the platform's when lower) standing their clearance
+/// above it.
+fn body_contacts(
+    a: &PuzzleAssembly,
+    params: &FleetParams,
+    terrain: &Terrain,
+    level: f64,
+    offset: [f64; 2],
+    s: &Settling,
+) -> Vec<Contact> {
+    let mut out = vec![];
+    for (i, r) in a.robots.iter().enumerate() {
+        let moved = RobotPose {
+            x: r.x + offset[0],
+            y: r.y + offset[1],
+            ..*r
+        };
+        for c in body_corners(r.kind, params) {
+            let w = world(&moved, c);
+            let Some((h, mu)) = terrain.support_at(w) else {
+                continue;
+            };
+            let gap = level + s.body_clearance - h;
+            if gap > 0.0 {
+                let mu = mu.min(s.chassis_friction);
+                out.push(Contact {
+                    module: format!("r{i}"),
+                    point: [w[0], w[1], h],
+                    normal: None,
+                    mu: [mu, mu],
+                    x_axis: Some([r.yaw.cos(), r.yaw.sin(), 0.0]),
+                    gap,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The four corners of a robot's underside in its body frame (m).
+pub fn body_corners(kind: RobotKind, params: &FleetParams) -> [[f64; 2]; 4] {
+    let [hl, hw] = params.robot(kind).geometry.half_extents();
+    let (hl, hw) = (f64::from(hl), f64::from(hw));
+    [[hl, hw], [hl, -hw], [-hl, hw], [-hl, -hw]]
 }

@@ -23,7 +23,7 @@ use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotParams};
 
 mod articulated;
-pub use articulated::{settle_articulated, Sag};
+pub use articulated::{resting_bodies, settle_articulated, Sag};
 
 /// How the supports give and how high the bodies stand above them.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,6 +51,10 @@ pub struct Settling {
     /// How far a released knob tilts freely about the shared face (rad):
     /// [`puzzlebot_params::coupling::Coupling::knob_tilt_limit`].
     pub knob_tilt_range: f64,
+    /// Friction coefficient of a robot's underside on a platform: the 3-D physics' printed
+    /// chassis, 0.3. A hanging robot whose underside comes to rest on a platform stands on it
+    /// with this friction.
+    pub chassis_friction: f64,
 }
 
 impl Default for Settling {
@@ -97,6 +101,7 @@ impl Settling {
             connector_angular_stiffness: f64::from(c.connector_angular_stiffness),
             anchor_pitch_range: f64::from(c.anchor_yaw_range),
             knob_tilt_range: c.knob_tilt_limit(&p.geometry),
+            chassis_friction: 0.3,
         }
     }
 
@@ -334,6 +339,7 @@ mod tests {
         connector_angular_stiffness: 10.0,
         anchor_pitch_range: 0.5,
         knob_tilt_range: 0.2,
+        chassis_friction: 0.3,
     };
 
     fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {

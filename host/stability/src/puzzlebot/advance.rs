@@ -2,10 +2,10 @@
 //! a connection fails, or a hanging robot stalls against an edge or sags into a gap.
 
 use super::{
-    assembly_level, build_model_with, check, touches, AdapterError, Advance, AdvanceOptions,
-    LimitedBy, PuzzleAssembly, Touch,
+    assembly_level, body_corners, build_model_with, check, touches, world, AdapterError, Advance,
+    AdvanceOptions, LimitedBy, PuzzleAssembly, RobotPose, Touch,
 };
-use crate::events::{front_events, support_events};
+use crate::events::{body_events, front_events, support_events};
 use crate::judge::{judge_model, judge_transfer};
 use crate::model::Assembly;
 use crate::sag::{droop, edge_stall, Settling};
@@ -71,6 +71,27 @@ pub fn max_safe_advance_with(
     let dir = [heading.cos(), heading.sin()];
     let at = |d: f64| [dir[0] * d, dir[1] * d];
     let state = |d: f64| touches(assembly, params, terrain, level, at(d), opt.max_drop);
+    // With settling on, the platform under each robot's underside corners as well: a robot
+    // may come to rest on it ([`crate::sag::resting_bodies`]).
+    let topology = |d: f64| {
+        let corners: Vec<Option<(f64, f64)>> = if opt.settling.is_some() {
+            assembly
+                .robots
+                .iter()
+                .flat_map(|r| {
+                    let moved = RobotPose {
+                        x: r.x + at(d)[0],
+                        y: r.y + at(d)[1],
+                        ..*r
+                    };
+                    body_corners(r.kind, params).map(|c| terrain.support_at(world(&moved, c)))
+                })
+                .collect()
+        } else {
+            vec![]
+        };
+        (state(d), corners)
+    };
     let judge = |d: f64, st: &Vec<Vec<Touch>>| -> Result<Option<LimitedBy>, AdapterError> {
         if let Some(robot) = st.iter().position(|r| r.contains(&Touch::Blocked)) {
             return Ok(Some(LimitedBy::StepUp { robot }));
@@ -126,8 +147,8 @@ pub fn max_safe_advance_with(
         let after = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
         judge_transfer(&before, &after, params, &opt, heading)
     };
-    let mut cur = state(0.0);
-    if let Some(why) = judge(0.0, &cur)? {
+    let mut cur = topology(0.0);
+    if let Some(why) = judge(0.0, &cur.0)? {
         return Ok(Advance {
             distance: 0.0,
             limited_by: why,
@@ -135,12 +156,15 @@ pub fn max_safe_advance_with(
     }
     // Just after every support event, and every `step` (a change found there is located by
     // bisection to 1 µm).
-    let mut checks: Vec<(f64, bool)> =
-        support_events(assembly, params, terrain, heading, opt.horizon)
-            .into_iter()
-            .map(|e| (e + EVENT_EPS, true))
-            .filter(|&(d, _)| d < opt.horizon)
-            .collect();
+    let mut events = support_events(assembly, params, terrain, heading, opt.horizon);
+    if opt.settling.is_some() {
+        events.extend(body_events(assembly, params, terrain, heading, opt.horizon));
+    }
+    let mut checks: Vec<(f64, bool)> = events
+        .into_iter()
+        .map(|e| (e + EVENT_EPS, true))
+        .filter(|&(d, _)| d < opt.horizon)
+        .collect();
     let n = (opt.horizon / step).ceil() as usize;
     checks.extend((1..=n).map(|k| ((k as f64 * step).min(opt.horizon), false)));
     checks.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -170,7 +194,7 @@ pub fn max_safe_advance_with(
                 limited_by: why,
             });
         }
-        let mut st = state(d);
+        let mut st = topology(d);
         if st == cur {
             last = d;
             continue;
@@ -183,15 +207,15 @@ pub fn max_safe_advance_with(
         if !event {
             while hi - lo > 1e-6 {
                 let mid = 0.5 * (lo + hi);
-                if state(mid) == cur {
+                if topology(mid) == cur {
                     lo = mid;
                 } else {
                     hi = mid;
                 }
             }
-            st = state(hi);
+            st = topology(hi);
         }
-        if let Some(why) = judge(hi, &st)?.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
+        if let Some(why) = judge(hi, &st.0)?.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
             return Ok(Advance {
                 distance: lo,
                 limited_by: why,

@@ -14,7 +14,7 @@
 //! quadratic program, solved with Clarabel. Units inside: mm, mrad, N, N·mm.
 
 use super::Settling;
-use crate::model::{Assembly, ConnectorSpec};
+use crate::model::{Assembly, ConnectorSpec, Contact};
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, SolverStatus, SupportedConeT::NonnegativeConeT,
@@ -78,6 +78,40 @@ fn lift(i: usize, d: [f64; 2]) -> [(usize, f64); 3] {
 /// engaging once its sink has closed its gap) with its couplings as `s` describes them.
 /// `None` when nothing can carry it (a module or the whole falls).
 pub fn settle_articulated(m: &Assembly, s: &Settling) -> Option<Sag> {
+    settle_with(m, s, &|k| s.of(&m.contacts[k]))
+}
+
+/// Which of `bodies` (contacts of the robots' undersides, each `gap` clear of the platform
+/// below it) `m` comes to rest on: settled ([`settle_articulated`]) with them as one-sided
+/// springs of `s.caster_compliance` (a hard chassis on a platform, as stiff as a caster), the
+/// ones whose sink closes their gap. `None` when even they cannot carry it.
+pub fn resting_bodies(m: &Assembly, s: &Settling, bodies: &[Contact]) -> Option<Vec<bool>> {
+    if bodies.is_empty() {
+        return Some(vec![]);
+    }
+    let n = m.contacts.len();
+    let mut with = m.clone();
+    with.contacts.extend(bodies.iter().cloned());
+    let sag = settle_with(&with, s, &|k| {
+        if k < n {
+            s.of(&with.contacts[k])
+        } else {
+            s.caster_compliance
+        }
+    })?;
+    Some(
+        bodies
+            .iter()
+            .map(|b| {
+                let i = m.modules.iter().position(|md| md.id == b.module);
+                i.is_some_and(|i| sag.sink(i, [b.point[0], b.point[1]]) > b.gap)
+            })
+            .collect(),
+    )
+}
+
+/// [`settle_articulated`] with contact `k`'s compliance `compliance(k)` (m/N).
+fn settle_with(m: &Assembly, s: &Settling, compliance: &dyn Fn(usize) -> f64) -> Option<Sag> {
     let g = -m.gravity[2];
     let nm = m.modules.len();
     let index = |id: &str| m.modules.iter().position(|md| md.id == id);
@@ -135,7 +169,7 @@ pub fn settle_articulated(m: &Assembly, s: &Settling) -> Option<Sag> {
     // Supports: penetration t ≥ sink − gap, t ≥ 0, energy ½·t²/compliance.
     for (k, c) in m.contacts.iter().enumerate() {
         let i = index(&c.module)?;
-        let compliance = s.of(c);
+        let compliance = compliance(k);
         if !(compliance.is_finite() && compliance > 0.0) {
             return None;
         }
@@ -278,7 +312,7 @@ fn solve(pr: &Program) -> Option<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Connection, Contact, Limits6, Module, Objective};
+    use crate::model::{Connection, Limits6, Module, Objective};
     use std::collections::BTreeMap;
 
     const S: Settling = Settling {
@@ -290,6 +324,7 @@ mod tests {
         connector_angular_stiffness: 10.0,
         anchor_pitch_range: 0.5,
         knob_tilt_range: 0.2,
+        chassis_friction: 0.3,
     };
 
     fn module(id: &str, x: f64, com_x: f64, fixed: bool) -> Module {
