@@ -18,7 +18,7 @@
 //! assembly as one rigid body.
 
 use crate::model::{Assembly, Contact};
-use crate::puzzlebot::{world, PuzzleAssembly, RobotPose};
+use crate::puzzlebot::{body_corners, world, PuzzleAssembly, RobotPose};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotParams};
 
@@ -242,9 +242,7 @@ pub fn droop(
                 y: r.y + offset[1],
                 ..*r
             };
-            let [hl, hw] = params.robot(r.kind).geometry.half_extents();
-            let (hl, hw) = (f64::from(hl), f64::from(hw));
-            [[hl, hw], [hl, -hw], [-hl, hw], [-hl, -hw]]
+            body_corners(r.kind, params)
                 .iter()
                 .any(|&c| {
                     let p = world(&moved, c);

@@ -388,6 +388,28 @@ mod tests {
     }
 
     #[test]
+    fn a_swinging_arm_comes_to_rest_on_a_platform_within_its_reach() {
+        // The free arm's far end (100 mm out) would drop 56 mm: a platform 20 mm below it
+        // catches it, one 80 mm below does not.
+        let under = |gap: f64| Contact {
+            module: "arm".into(),
+            point: [0.1, 0.0, -gap],
+            normal: None,
+            mu: [0.3, 0.3],
+            x_axis: None,
+            gap,
+        };
+        let m = arm(true);
+        assert_eq!(resting_bodies(&m, &S, &[under(0.02)]), Some(vec![true]));
+        assert_eq!(resting_bodies(&m, &S, &[under(0.08)]), Some(vec![false]));
+        // Held stiff, it sinks 6 mm there and reaches neither.
+        assert_eq!(
+            resting_bodies(&arm(false), &S, &[under(0.02)]),
+            Some(vec![false])
+        );
+    }
+
+    #[test]
     fn a_plate_on_springs_settles_as_the_rigid_model_does() {
         let mut m = arm(false);
         m.modules = vec![module("m", 0.0, 0.5, false)];
