@@ -10,7 +10,8 @@ use puzzlebot_host::live;
 use puzzlebot_host::record::RunInfo;
 use puzzlebot_sim::{Pace, Scenario, SimFleet, SimOptions};
 
-use super::{finish_assembly, Cmd, ExperimentCmd};
+use crate::cli::{Cmd, ExperimentCmd};
+use crate::run_command::finish_assembly;
 
 /// An assembly scenario on a simulated fleet: the controller in lockstep with the simulator
 /// (on a blocking thread), or in real time over loopback UDP; with `live`, its live page on

@@ -1,5 +1,5 @@
 //! Stable-toolchain fallback for the cargo-fuzz targets: the very same harness functions
-//! (`protocol/fuzz/src/harness.rs`) run over the committed seed corpus
+//! (`protocol/fuzz/src/harness/`) run over the committed seed corpus
 //! (`protocol/fuzz/seeds/<target>/`) and a few thousand deterministic pseudo-random
 //! inputs (fresh bytes and mutations of the seeds), so CI exercises the fuzzed code paths
 //! and their invariants without nightly.
@@ -7,7 +7,7 @@
 //! Regenerate the seeds (after a message change):
 //! `PUZZLEBOT_WRITE_SEEDS=1 cargo test -p puzzlebot-protocol --test fuzz_regression -- --ignored write_seeds`
 
-#[path = "../fuzz/src/harness.rs"]
+#[path = "../fuzz/src/harness/mod.rs"]
 mod harness;
 
 use std::fs;

@@ -18,10 +18,16 @@
 //! - no valid frame for `relink_after_ms` → drop the session and announce again with a
 //!   fresh nonce, so a restarted host can take over.
 
+mod config;
+mod receive;
+mod transmit;
+
+pub use config::{check_config, ConfigError};
+
 use puzzlebot_params::firmware::Firmware;
 use puzzlebot_protocol::{
-    flags, EncodeError, FirmwareVersion, HostMsg, Nonce, ParamRejection, Rejection, ResetReason,
-    RobotId, RobotKey, RobotKind, RobotMsg, RobotSession, Telemetry, UpdateStatus, MAX_DATAGRAM,
+    flags, FirmwareVersion, Nonce, Rejection, ResetReason, RobotId, RobotKey, RobotKind, RobotMsg,
+    RobotSession,
 };
 
 use crate::drv8833::{Decay, HBridge, MotorCommand, MotorOutputs};
@@ -65,74 +71,6 @@ pub enum DriveMode {
     Speed,
     /// Open-loop duties (per-mille), for calibration.
     RawDuty([i16; 2]),
-}
-
-/// Why a [`Firmware`] parameter set cannot run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ConfigError {
-    /// `loop_hz` must be finite and within 1…1000.
-    LoopRate,
-    /// `encoder_edges_per_rev` must be positive.
-    EncoderEdges,
-    /// `max_rpm` must be finite and positive.
-    MaxRpm,
-    /// `schedule_rpm` must be finite and ascending.
-    Schedule,
-    /// `ff_duty_per_rpm`, `ff_deadband_duty`, `reference_tau_ms` must be finite, ≥ 0,
-    /// dead-band < 1000.
-    FeedForward,
-    /// `duty_slew_per_s` must be finite and positive.
-    Slew,
-    /// The runtime part failed [`puzzlebot_protocol::ParamSet::check`].
-    Params(ParamRejection),
-}
-
-impl core::fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self {
-            ConfigError::LoopRate => f.write_str("firmware.loop_hz must be within 1..=1000"),
-            ConfigError::EncoderEdges => f.write_str("firmware.encoder_edges_per_rev must be > 0"),
-            ConfigError::MaxRpm => f.write_str("firmware.max_rpm must be finite and > 0"),
-            ConfigError::Schedule => {
-                f.write_str("firmware.schedule_rpm must be finite and ascending")
-            }
-            ConfigError::FeedForward => f.write_str(
-                "firmware.ff_duty_per_rpm / ff_deadband_duty / reference_tau_ms must be finite, >= 0, dead-band < 1000",
-            ),
-            ConfigError::Slew => f.write_str("firmware.duty_slew_per_s must be finite and > 0"),
-            ConfigError::Params(r) => write!(f, "firmware pi/failsafe/telemetry: {r:?}"),
-        }
-    }
-}
-
-/// Check that a parameter set can run.
-pub fn check_config(p: &Firmware) -> Result<(), ConfigError> {
-    if !(p.loop_hz.is_finite() && (1.0..=1000.0).contains(&p.loop_hz)) {
-        return Err(ConfigError::LoopRate);
-    }
-    if p.encoder_edges_per_rev == 0 {
-        return Err(ConfigError::EncoderEdges);
-    }
-    if !(p.max_rpm.is_finite() && p.max_rpm > 0.0) {
-        return Err(ConfigError::MaxRpm);
-    }
-    let s = p.schedule_rpm;
-    if !(s.iter().all(|x| x.is_finite()) && s[0] < s[1] && s[1] < s[2]) {
-        return Err(ConfigError::Schedule);
-    }
-    let ff_ok = p.ff_duty_per_rpm.is_finite()
-        && p.reference_tau_ms.is_finite()
-        && p.reference_tau_ms >= 0.0
-        && p.ff_duty_per_rpm >= 0.0
-        && p.ff_deadband_duty.is_finite()
-        && (0.0..1000.0).contains(&p.ff_deadband_duty);
-    if !ff_ok {
-        return Err(ConfigError::FeedForward);
-    }
-    if !(p.duty_slew_per_s.is_finite() && p.duty_slew_per_s > 0.0) {
-        return Err(ConfigError::Slew);
-    }
-    p.param_set().check().map_err(ConfigError::Params)
 }
 
 /// Counters of the link, for telemetry-side diagnostics and tests.
@@ -339,169 +277,10 @@ impl<N: NonceSource> Robot<N> {
         f
     }
 
-    /// Handle one received datagram at `now_us`. Returns why it was refused, if it was;
-    /// a refused datagram never changes what the motors do.
-    pub fn on_datagram(&mut self, frame: &[u8], now_us: u64) -> Result<(), Rejection> {
-        let Some(link) = self.link.as_mut() else {
-            self.stats.rejected[Rejection::NoSession as usize] += 1;
-            return Err(Rejection::NoSession);
-        };
-        let (header, msg) = match link.receive(frame) {
-            Ok(x) => x,
-            Err(r) => {
-                self.stats.rejected[r as usize] += 1;
-                return Err(r);
-            }
-        };
-        self.stats.accepted += 1;
-        self.last_rx_us = now_us;
-        if let HostMsg::Welcome { .. } = msg {
-            self.on_welcome(now_us);
-        } else {
-            self.last_command_counter = header.counter;
-            self.apply(header.counter, msg, now_us);
-        }
-        Ok(())
-    }
-
-    fn on_welcome(&mut self, now_us: u64) {
-        self.stats.sessions += 1;
-        // Counters restart with the session; commands of the old session are void.
-        self.last_drive_counter = None;
-        self.last_estop_counter = None;
-        self.last_command_counter = 0;
-        self.reported_errors = self.encoder_errors;
-        if matches!(self.mode, DriveMode::Speed | DriveMode::RawDuty(_)) {
-            self.stop();
-        }
-        // Telemetry right away: the first session frame proves the session to the host.
-        self.next_telemetry_us = now_us;
-    }
-
     fn stop(&mut self) {
         self.mode = DriveMode::Stopped;
         for w in &mut self.wheels {
             w.reset();
-        }
-    }
-
-    /// True if a drive command with `counter` is the newest seen (and records it).
-    fn fresh_drive(&mut self, counter: u64) -> bool {
-        if self.last_drive_counter.is_some_and(|c| counter <= c) {
-            self.stats.stale_commands += 1;
-            return false;
-        }
-        self.last_drive_counter = Some(counter);
-        true
-    }
-
-    fn apply(&mut self, counter: u64, msg: HostMsg, now_us: u64) {
-        match msg {
-            HostMsg::WheelSpeed {
-                left_rpm,
-                right_rpm,
-            } => {
-                if self.estop {
-                    self.stats.blocked_by_estop += 1;
-                } else if self.fresh_drive(counter) {
-                    if self.mode != DriveMode::Speed {
-                        for w in &mut self.wheels {
-                            w.reset();
-                        }
-                    }
-                    self.wheels[0].set_target(left_rpm);
-                    self.wheels[1].set_target(right_rpm);
-                    self.mode = DriveMode::Speed;
-                    self.failsafe = false;
-                    self.last_drive_us = now_us;
-                }
-            }
-            HostMsg::RawDuty { left, right } => {
-                if self.estop {
-                    self.stats.blocked_by_estop += 1;
-                } else if self.fresh_drive(counter) {
-                    for w in &mut self.wheels {
-                        w.reset();
-                    }
-                    self.mode = DriveMode::RawDuty([left, right]);
-                    self.failsafe = false;
-                    self.last_drive_us = now_us;
-                }
-            }
-            HostMsg::Stop => {
-                // Stopping is always safe, even when reordered; it still orders later commands.
-                self.last_drive_counter =
-                    Some(self.last_drive_counter.map_or(counter, |c| c.max(counter)));
-                self.stop();
-            }
-            HostMsg::EmergencyStop => {
-                self.estop = true;
-                self.last_estop_counter =
-                    Some(self.last_estop_counter.map_or(counter, |c| c.max(counter)));
-                self.last_drive_counter =
-                    Some(self.last_drive_counter.map_or(counter, |c| c.max(counter)));
-                self.stop();
-            }
-            HostMsg::ClearEmergencyStop => {
-                // A clear older than the newest e-stop does not release it.
-                if self.last_estop_counter.is_none_or(|c| counter > c) {
-                    self.estop = false;
-                    self.last_drive_counter =
-                        Some(self.last_drive_counter.map_or(counter, |c| c.max(counter)));
-                    if self.mode != DriveMode::Idle {
-                        self.stop();
-                    }
-                }
-            }
-            HostMsg::SetParams(set) => {
-                let rejected = set.check().err();
-                if rejected.is_none() {
-                    self.params.pi = set.pi;
-                    self.params.failsafe_timeout_ms = set.failsafe_timeout_ms;
-                    self.params.telemetry_hz = set.telemetry_hz;
-                    for w in &mut self.wheels {
-                        w.set_gains(set.pi);
-                    }
-                    self.next_telemetry_us = now_us;
-                }
-                self.queue_reply(RobotMsg::ParamsReply { rejected });
-            }
-            HostMsg::Ping { seq, host_time_us } => {
-                self.queue_reply(RobotMsg::Pong { seq, host_time_us });
-            }
-            HostMsg::UpdateBegin {
-                transfer,
-                total_len,
-            } => {
-                self.update_rx = Some(UpdateRequest::Begin {
-                    transfer,
-                    total_len,
-                })
-            }
-            HostMsg::UpdateChunk { offset, data } => {
-                self.update_rx = Some(UpdateRequest::Chunk { offset, data })
-            }
-            // Welcomes arrive on the hello stream and are handled in `on_datagram`.
-            HostMsg::Welcome { .. } => {}
-        }
-    }
-
-    /// The update message of the last datagram, if it carried one: hand it to the
-    /// [`crate::update::Updater`] (which owns the flash slot) right after
-    /// [`Robot::on_datagram`], and its report to [`Robot::report_update`].
-    pub fn take_update_request(&mut self) -> Option<UpdateRequest> {
-        self.update_rx.take()
-    }
-
-    /// Send an update report to the host (with the next transmission).
-    pub fn report_update(&mut self, status: UpdateStatus) {
-        self.queue_reply(RobotMsg::UpdateStatus(status));
-    }
-
-    fn queue_reply(&mut self, msg: RobotMsg) {
-        match self.replies.iter_mut().find(|r| r.is_none()) {
-            Some(slot) => *slot = Some(msg),
-            None => self.stats.replies_dropped += 1,
         }
     }
 
@@ -576,80 +355,6 @@ impl<N: NonceSource> Robot<N> {
         MotorOutputs {
             left: HBridge::drive(cmds[0], Decay::Slow),
             right: HBridge::drive(cmds[1], Decay::Slow),
-        }
-    }
-
-    /// The next datagram to send at `now_us` (announce, reply or telemetry), written to
-    /// `out` (at least [`MAX_DATAGRAM`] bytes); call until it returns `None`.
-    pub fn poll_transmit(&mut self, now_us: u64, out: &mut [u8]) -> Option<usize> {
-        let link = self.link.as_mut()?;
-        if out.len() < MAX_DATAGRAM {
-            self.stats.tx_errors += 1;
-            return None;
-        }
-        if !link.is_established() {
-            if now_us < self.next_announce_us {
-                return None;
-            }
-            self.next_announce_us =
-                now_us + u64::from(self.params.announce_interval_ms).max(1) * 1000;
-            return match link.announce(self.kind, self.version, out) {
-                Ok(n) => Some(n),
-                Err(e) => self.tx_failed(e),
-            };
-        }
-        if let Some(slot) = self.replies.iter_mut().find(|r| r.is_some()) {
-            let msg = slot.take()?;
-            return match link.send(&msg, out) {
-                Ok(n) => Some(n),
-                Err(e) => self.tx_failed(e),
-            };
-        }
-        if self.params.telemetry_hz == 0 || now_us < self.next_telemetry_us {
-            return None;
-        }
-        let period = 1_000_000 / u64::from(self.params.telemetry_hz);
-        self.next_telemetry_us = if now_us >= self.next_telemetry_us + period {
-            now_us + period
-        } else {
-            self.next_telemetry_us + period
-        };
-        let t = self.telemetry(now_us);
-        self.reported_errors = self.encoder_errors;
-        match self
-            .link
-            .as_mut()
-            .map(|l| l.send(&RobotMsg::Telemetry(t), out))
-        {
-            Some(Ok(n)) => Some(n),
-            Some(Err(e)) => self.tx_failed(e),
-            None => None,
-        }
-    }
-
-    fn tx_failed(&mut self, e: EncodeError) -> Option<usize> {
-        self.stats.tx_errors += 1;
-        if e == EncodeError::CounterExhausted {
-            let n = self.nonces.fresh_nonce();
-            if let Some(l) = self.link.as_mut() {
-                l.restart(n);
-            }
-        }
-        None
-    }
-
-    /// The telemetry record as it would be sent at `now_us`.
-    pub fn telemetry(&self, now_us: u64) -> Telemetry {
-        Telemetry {
-            uptime_ms: (now_us / 1000) as u32,
-            measured_rpm: self.measured,
-            target_rpm: [self.wheels[0].target(), self.wheels[1].target()],
-            duty: self.duty,
-            encoder_counts: self.positions,
-            battery_mv: self.battery_mv,
-            rssi_dbm: self.rssi_dbm,
-            flags: self.flags(),
-            last_command_counter: self.last_command_counter,
         }
     }
 }

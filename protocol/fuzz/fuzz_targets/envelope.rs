@@ -1,5 +1,5 @@
 #![no_main]
-//! cargo-fuzz target: see `src/harness.rs` (`fuzz_envelope`).
+//! cargo-fuzz target: see `src/harness/decoders.rs` (`fuzz_envelope`).
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

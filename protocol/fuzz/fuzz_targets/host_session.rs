@@ -1,5 +1,5 @@
 #![no_main]
-//! cargo-fuzz target: see `src/harness.rs` (`fuzz_host_session`).
+//! cargo-fuzz target: see `src/harness/host_session.rs` (`fuzz_host_session`).
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

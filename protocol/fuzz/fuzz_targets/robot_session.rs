@@ -1,5 +1,5 @@
 #![no_main]
-//! cargo-fuzz target: see `src/harness.rs` (`fuzz_robot_session`).
+//! cargo-fuzz target: see `src/harness/robot_session.rs` (`fuzz_robot_session`).
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
