@@ -1,8 +1,8 @@
-//! THESIS 3.5.2 end to end: four robots, one of them a pilot, before a 40 mm gap whose far
-//! platform is 5 mm lower. The planner picks shape, pilot place and heading by the gate; the
-//! formed assembly then drives across in the 3-D physics at that heading from its planned
-//! start and from jittered ones, every robot reaching the far platform, none falling, no
-//! connector opening.
+//! THESIS 3.5.2 end to end: four robots, one of them a pilot, before a 40 mm gap, level and
+//! with the far platform 5 mm lower. The planner picks shape, pilot place and heading by the
+//! gate; the formed assembly then drives across in the 3-D physics at that heading from its
+//! planned start and from jittered ones, every robot reaching the far platform, none falling,
+//! no connector opening.
 
 use puzzlebot_host::crossing::drive3d;
 use puzzlebot_host::experiment::crossing::{configs, run_scenario, set_down, settings, Obstacle};
@@ -12,12 +12,19 @@ use puzzlebot_stability::crossing::plan;
 
 #[test]
 fn the_planned_four_robot_crossing_of_40_mm_and_5_mm_gets_across() {
+    cross_planned(0.005);
+}
+
+#[test]
+fn the_planned_four_robot_crossing_of_a_level_40_mm_gap_gets_across() {
+    cross_planned(0.0);
+}
+
+/// Plan 4 robots with one pilot over a 40 mm gap whose far platform is `drop` lower, and
+/// drive the planner's choice across from three starts.
+fn cross_planned(drop: f64) {
     let params = FleetParams::default();
-    let terrain = Obstacle {
-        width: 0.04,
-        drop: 0.005,
-    }
-    .terrain();
+    let terrain = Obstacle { width: 0.04, drop }.terrain();
     let s = settings();
     let opt = drive3d::crossing_options(&s, &params);
     let ranked = plan(&terrain, &params, 4, 1, &opt).expect("plan");
