@@ -456,7 +456,7 @@ pub fn build_model_with(
         loads: vec![],
         objective: Objective::default(),
     };
-    if let Some(s) = &opt.settling {
+    if let Some(s) = opt.settling.as_ref().filter(|s| s.rest_on_bodies) {
         let bodies = body_contacts(a, params, terrain, level, offset, s);
         if let Some(rests) = resting_bodies(&m, s, &bodies) {
             m.contacts.extend(

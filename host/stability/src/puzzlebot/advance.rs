@@ -71,10 +71,11 @@ pub fn max_safe_advance_with(
     let dir = [heading.cos(), heading.sin()];
     let at = |d: f64| [dir[0] * d, dir[1] * d];
     let state = |d: f64| touches(assembly, params, terrain, level, at(d), opt.max_drop);
-    // With settling on, the platform under each robot's underside corners as well: a robot
-    // may come to rest on it ([`crate::sag::resting_bodies`]).
+    let resting = opt.settling.is_some_and(|s| s.rest_on_bodies);
+    // With resting bodies on, the platform under each robot's underside corners as well: a
+    // robot may come to rest on it ([`crate::sag::resting_bodies`]).
     let topology = |d: f64| {
-        let corners: Vec<Option<(f64, f64)>> = if opt.settling.is_some() {
+        let corners: Vec<Option<(f64, f64)>> = if resting {
             assembly
                 .robots
                 .iter()
@@ -157,7 +158,7 @@ pub fn max_safe_advance_with(
     // Just after every support event, and every `step` (a change found there is located by
     // bisection to 1 µm).
     let mut events = support_events(assembly, params, terrain, heading, opt.horizon);
-    if opt.settling.is_some() {
+    if resting {
         events.extend(body_events(assembly, params, terrain, heading, opt.horizon));
     }
     let mut checks: Vec<(f64, bool)> = events

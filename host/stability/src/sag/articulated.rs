@@ -325,6 +325,7 @@ mod tests {
         anchor_pitch_range: 0.5,
         knob_tilt_range: 0.2,
         chassis_friction: 0.3,
+        rest_on_bodies: true,
     };
 
     fn module(id: &str, x: f64, com_x: f64, fixed: bool) -> Module {
