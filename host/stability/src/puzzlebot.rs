@@ -42,6 +42,17 @@ pub struct RobotPose {
     pub yaw: f64,
 }
 
+impl RobotPose {
+    /// The same robot moved by `offset` (m, world).
+    pub fn translated(&self, offset: [f64; 2]) -> RobotPose {
+        RobotPose {
+            x: self.x + offset[0],
+            y: self.y + offset[1],
+            ..*self
+        }
+    }
+}
+
 /// Type of an established coupling.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -241,11 +252,7 @@ fn touches(
     a.robots
         .iter()
         .map(|r| {
-            let moved = RobotPose {
-                x: r.x + offset[0],
-                y: r.y + offset[1],
-                ..*r
-            };
+            let moved = r.translated(offset);
             contact_points(r.kind, params)
                 .iter()
                 .map(|(b, _)| match terrain.support_at(world(&moved, *b)) {
@@ -325,11 +332,7 @@ pub fn build_model_with(
     let mut contacts = Vec::new();
     for (i, r) in a.robots.iter().enumerate() {
         let p = params.robot(r.kind);
-        let moved = RobotPose {
-            x: r.x + offset[0],
-            y: r.y + offset[1],
-            ..*r
-        };
+        let moved = r.translated(offset);
         modules.push(Module {
             id: format!("r{i}"),
             mass: p.mass.mass as f64,
@@ -405,11 +408,7 @@ pub fn build_model_with(
     for p in &a.pairs {
         let ra = &a.robots[p.a];
         let ga = &params.robot(ra.kind).geometry;
-        let moved = RobotPose {
-            x: ra.x + offset[0],
-            y: ra.y + offset[1],
-            ..*ra
-        };
+        let moved = ra.translated(offset);
         let (body, name) = match p.kind {
             PairKind::Anchor => (ga.anchor_head, "anchor"),
             PairKind::Knob => (ga.knob_left, "knob"),
@@ -419,14 +418,7 @@ pub fn build_model_with(
         let zc = level + params.robot(rb.kind).geometry.com_height as f64;
         let point: Vec3 = [w[0], w[1], zc];
         // z horizontal from the point into the child b.
-        let cb = world(
-            &RobotPose {
-                x: rb.x + offset[0],
-                y: rb.y + offset[1],
-                ..*rb
-            },
-            [0.0, 0.0],
-        );
+        let cb = world(&rb.translated(offset), [0.0, 0.0]);
         // A knob's frame is its own: z across the shared face into the robot with the hole
         // (`a`'s left), as the connector's limits and the 3-D physics measure it; an anchor's
         // z runs along the chain into the robot behind.
@@ -485,11 +477,7 @@ fn body_contacts(
 ) -> Vec<Contact> {
     let mut out = vec![];
     for (i, r) in a.robots.iter().enumerate() {
-        let moved = RobotPose {
-            x: r.x + offset[0],
-            y: r.y + offset[1],
-            ..*r
-        };
+        let moved = r.translated(offset);
         for c in body_corners(r.kind, params) {
             let w = world(&moved, c);
             let Some((h, mu)) = terrain.support_at(w) else {

@@ -18,7 +18,7 @@
 //! assembly as one rigid body.
 
 use crate::model::{Assembly, Contact};
-use crate::puzzlebot::{body_corners, world, PuzzleAssembly, RobotPose};
+use crate::puzzlebot::{body_corners, world, PuzzleAssembly};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotParams};
 
@@ -70,8 +70,6 @@ impl Default for Settling {
         Settling {
             wheel_compliance: 2e-3,
             caster_compliance: 3e-4,
-            body_clearance: 0.005,
-            max_droop: 0.01,
             ..Settling::couplings(&FleetParams::default().non_pilot)
         }
     }
@@ -97,7 +95,8 @@ impl Settled {
 
 impl Settling {
     /// Rigid supports (no sink) under couplings of robots `p`: their stiffness and free
-    /// ranges from the parameter set; clearance and fall depth as [`Settling::default`].
+    /// ranges from the parameter set; a body 5 mm clear, fallen 10 mm below the platform and
+    /// sliding at μ 0.3 as in the 3-D physics (the host sets its world's own numbers).
     pub fn couplings(p: &RobotParams) -> Settling {
         let c = &p.coupling;
         Settling {
@@ -246,11 +245,7 @@ pub fn droop(
         .enumerate()
         .filter(|(_, (_, &h))| h)
         .find_map(|(i, (r, _))| {
-            let moved = RobotPose {
-                x: r.x + offset[0],
-                y: r.y + offset[1],
-                ..*r
-            };
+            let moved = r.translated(offset);
             body_corners(r.kind, params)
                 .iter()
                 .any(|&c| {
@@ -304,11 +299,6 @@ pub fn edge_stall(
     s: &Settling,
 ) -> Option<usize> {
     let sag_at = hanging_sag(model, hanging, s)?;
-    let moved = |r: &RobotPose, o: [f64; 2]| RobotPose {
-        x: r.x + o[0],
-        y: r.y + o[1],
-        ..*r
-    };
     a.robots
         .iter()
         .zip(hanging)
@@ -318,9 +308,9 @@ pub fn edge_stall(
             let [hl, hw] = params.robot(r.kind).geometry.half_extents();
             let (hl, hw) = (f64::from(hl), f64::from(hw));
             [[hl, hw], [hl, -hw], [hl, 0.0]].iter().find_map(|&c| {
-                let p = world(&moved(r, reach[1]), c);
+                let p = world(&r.translated(reach[1]), c);
                 let (h, _) = terrain.support_at(p)?;
-                let before = terrain.support_at(world(&moved(r, reach[0]), c));
+                let before = terrain.support_at(world(&r.translated(reach[0]), c));
                 if before.is_some_and(|(hb, _)| hb == h) {
                     return None;
                 }
@@ -331,7 +321,7 @@ pub fn edge_stall(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::model::{Module, Objective};
     use std::collections::BTreeMap;
@@ -350,7 +340,9 @@ mod tests {
         rest_on_bodies: false,
     };
 
-    fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
+    /// A 1 kg plate under 10 N/kg with its centre of mass at `com`, on wheel-like contacts
+    /// (point, gap).
+    pub(in crate::sag) fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
         Assembly {
             gravity: [0.0, 0.0, -10.0],
             modules: vec![Module {

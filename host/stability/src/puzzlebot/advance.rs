@@ -3,7 +3,7 @@
 
 use super::{
     assembly_level, body_corners, build_model_with, check, touches, world, AdapterError, Advance,
-    AdvanceOptions, LimitedBy, PuzzleAssembly, RobotPose, Touch,
+    AdvanceOptions, LimitedBy, PuzzleAssembly, Touch,
 };
 use crate::events::{body_events, front_events, support_events};
 use crate::judge::{judge_model, judge_transfer};
@@ -80,11 +80,7 @@ pub fn max_safe_advance_with(
                 .robots
                 .iter()
                 .flat_map(|r| {
-                    let moved = RobotPose {
-                        x: r.x + at(d)[0],
-                        y: r.y + at(d)[1],
-                        ..*r
-                    };
+                    let moved = r.translated(at(d));
                     body_corners(r.kind, params).map(|c| terrain.support_at(world(&moved, c)))
                 })
                 .collect()

@@ -313,6 +313,8 @@ fn solve(pr: &Program) -> Option<Vec<f64>> {
 mod tests {
     use super::*;
     use crate::model::{Connection, Limits6, Module, Objective};
+    use crate::sag::settle;
+    use crate::sag::tests::plate;
     use std::collections::BTreeMap;
 
     const S: Settling = Settling {
@@ -412,26 +414,21 @@ mod tests {
 
     #[test]
     fn a_plate_on_springs_settles_as_the_rigid_model_does() {
-        let mut m = arm(false);
-        m.modules = vec![module("m", 0.0, 0.5, false)];
-        m.connections.clear();
-        m.contacts = [[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]
-            .iter()
-            .map(|p| Contact {
-                module: "m".into(),
-                point: [p[0], p[1], 0.0],
-                normal: None,
-                mu: [0.5, 0.5],
-                x_axis: None,
-                gap: 0.0,
-            })
-            .collect();
+        let corners = [
+            ([1.0, 1.0], 0.0),
+            ([1.0, -1.0], 0.0),
+            ([-1.0, 1.0], 0.0),
+            ([-1.0, -1.0], 0.0),
+        ];
+        let m = plate(&corners, [0.5, 0.0]);
         // 10 N at x = 0.5 on four 1 mm/N springs: 3.75 mm at the front, 1.25 at the back.
         let sag = settle_articulated(&m, &S).unwrap();
         assert!((sag.sink(0, [1.0, 0.0]) - 3.75e-3).abs() < 1e-6, "{sag:?}");
         assert!((sag.sink(0, [-1.0, 0.0]) - 1.25e-3).abs() < 1e-6, "{sag:?}");
+        // The same as the one-body settling.
+        let rigid = settle(&m, &S).unwrap();
+        assert!((sag.sink(0, [1.0, 1.0]) - rigid.sink([1.0, 1.0])).abs() < 1e-6);
         // Past the front line nothing holds it.
-        m.modules[0].com[0] = 1.2;
-        assert_eq!(settle_articulated(&m, &S), None);
+        assert_eq!(settle_articulated(&plate(&corners, [1.2, 0.0]), &S), None);
     }
 }
