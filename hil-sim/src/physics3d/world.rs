@@ -151,6 +151,12 @@ impl World3d {
                     return Err(inv(format!("params coupling.{n}: must be > 0, got {v}")));
                 }
             }
+            if !(c.knob_play.is_finite() && c.knob_play >= 0.0) {
+                return Err(inv(format!(
+                    "params coupling.knob_play: must be ≥ 0, got {}",
+                    c.knob_play
+                )));
+            }
         }
         let mut params = IntegrationParameters {
             length_unit: LENGTH_UNIT,
