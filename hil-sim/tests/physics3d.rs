@@ -259,9 +259,9 @@ fn a_cantilevered_chain_breaks_its_root_knob_where_statics_says() {
 fn a_negative_knob_play_is_refused_by_name() {
     let mut s = lone(RobotKind::NonPilot, -0.1, gap_terrain(0.04, 0.0, 0.0));
     s.params.non_pilot.coupling.knob_play = -0.001;
-    let e = World3d::new(&s, Config3d::default())
-        .err()
-        .expect("refused")
-        .to_string();
+    let Err(e) = World3d::new(&s, Config3d::default()) else {
+        panic!("a negative knob play was accepted");
+    };
+    let e = e.to_string();
     assert!(e.contains("coupling.knob_play"), "{e}");
 }
