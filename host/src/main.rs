@@ -127,11 +127,12 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let args = {
                 use puzzlebot_host::crossing::drive3d::{crossing_options, CrossSettings};
                 let mut args = args;
-                if args.drive_accel.is_none() {
-                    let p = puzzlebot_params::FleetParams::default();
-                    args.drive_accel =
-                        Some(crossing_options(&CrossSettings::default(), &p).drive_accel);
-                }
+                let host = crossing_options(
+                    &CrossSettings::default(),
+                    &puzzlebot_params::FleetParams::default(),
+                );
+                args.drive_accel = args.drive_accel.or(Some(host.drive_accel));
+                args.speed = args.speed.or(Some(host.bridge_speed));
                 args
             };
             let out = args.run()?;

@@ -6,10 +6,14 @@
 //! docs/gate-design-notes.md.)
 
 use puzzlebot_host::crossing::drive3d;
-use puzzlebot_host::experiment::crossing::{configs, run_scenario, set_down, settings, Obstacle};
+use puzzlebot_host::crossing::drive3d::CrossSettings;
+use puzzlebot_host::experiment::crossing::{
+    configs, predict, run_scenario, set_down, settings, Obstacle,
+};
 use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::World3d;
-use puzzlebot_stability::crossing::plan;
+use puzzlebot_stability::crossing::{formed, plan};
+use puzzlebot_stability::puzzlebot::{max_safe_advance_with, AdvanceOptions};
 
 #[test]
 fn the_planned_four_robot_crossing_of_a_level_40_mm_gap_gets_across() {
@@ -56,4 +60,70 @@ fn cross_planned(drop: f64) {
             best.heading_deg
         );
     }
+}
+
+/// A line of six with its pilot at the back, 40° to a 30 mm gap whose far platform is 6 mm
+/// lower: a caster leaves the edge a few millimetres before the next contact reaches the far
+/// platform, and in between the line stands on nothing that holds it. The gate proves that
+/// stretch only at the crossing speed, marks it and lets the assembly stand only before it;
+/// the host, whose live gate does not stop it there, drives across.
+#[test]
+fn a_line_that_would_tip_if_it_stopped_over_the_gap_crosses_at_speed() {
+    let params = FleetParams::default();
+    let obstacle = Obstacle {
+        width: 0.03,
+        drop: 0.006,
+    };
+    let terrain = obstacle.terrain();
+    let cfg = configs(&[6], &params)
+        .into_iter()
+        .find(|c| c.shape == "line 6" && c.pilots == "back")
+        .expect("line 6 with a back pilot");
+    let (cand, _) = predict(&cfg, obstacle, 40.0, &params).expect("predict");
+    assert!(cand.crosses(), "{:?}", cand.advance);
+    let stop = cand.advance.stop_limit();
+    assert!(
+        !cand.advance.bridged.is_empty() && stop < cand.required,
+        "{:?}",
+        cand.advance
+    );
+    // Without the speed, the gate stops where the stretch begins.
+    let formed_asm = set_down(&cfg, &params).expect("formed");
+    let heading = 40f64.to_radians();
+    let a = formed(
+        formed_asm.shape,
+        &cfg.pilot_places,
+        &params,
+        cand.start,
+        heading,
+    );
+    let opt = drive3d::crossing_options(&settings(), &params);
+    let standing = max_safe_advance_with(
+        &a,
+        &params,
+        &terrain,
+        heading,
+        opt.step,
+        AdvanceOptions {
+            bridge_speed: 0.0,
+            ..opt.advance_options(cand.required)
+        },
+    )
+    .expect("gate");
+    assert!(
+        (standing.distance - stop).abs() < 0.006,
+        "standing {standing:?}, stop limit {stop}"
+    );
+    // The host with its live gate on drives across without stopping in the stretch.
+    let s = CrossSettings {
+        live_gate: true,
+        ..settings()
+    };
+    let sc = run_scenario(&formed_asm, &cand, &terrain, &params, 11, 0);
+    let mut w = World3d::new(&sc, s.world).expect("world");
+    let o = drive3d::cross(&mut w, &cand, &terrain, &params, &s);
+    assert!(
+        o.gate_stop.is_none() && o.fell.is_empty() && o.broke.is_empty() && o.across == 6,
+        "{o:?}"
+    );
 }

@@ -196,6 +196,11 @@ pub struct CrossRun {
     pub gate_advance: f64,
     /// What limits the gate there.
     pub gate_limited_by: String,
+    /// The farthest advance at which the gate lets the assembly stand still (m): the start
+    /// of its first stretch proven only at speed ([`Advance::stop_limit`]); None: the whole
+    /// advance.
+    #[serde(default)]
+    pub gate_stop_limit: Option<f64>,
     /// The gate's proven advance with unbreakable couplings (m).
     pub rigid_advance: f64,
     /// Advance at which a robot fell (in runs that end with robots short of the far
@@ -229,8 +234,8 @@ impl CrossRun {
     /// The gate called safe an advance past the physics' static tipping point (where
     /// measured): stopped there, the assembly falls.
     pub fn gate_past_tip(&self) -> bool {
-        self.physics_tip
-            .is_some_and(|t| self.gate_advance > t + 1e-3)
+        let stands = self.gate_stop_limit.unwrap_or(self.gate_advance);
+        self.physics_tip.is_some_and(|t| stands > t + 1e-3)
     }
 }
 
@@ -355,8 +360,10 @@ pub fn predict(
         heading,
         opt.step,
         // Unbreakable couplings with the same hinges as the planner's gate (and the physics).
+        // It stands at every advance it proves (no bridged stretches): the static tipping point.
         AdvanceOptions {
             rigid_couplings: true,
+            bridge_speed: 0.0,
             ..opt.advance_options(cand.required)
         },
     )
@@ -452,6 +459,7 @@ fn run_case(
             required: cand.required,
             gate_advance: cand.advance.distance,
             gate_limited_by: format!("{:?}", cand.advance.limited_by),
+            gate_stop_limit: Some(cand.advance.stop_limit()),
             rigid_advance: rigid.distance,
             physics_tip: match (physics_fail, fail_kind) {
                 (Some(f), Some("fell")) if cfg.mesh && run == 0 => {

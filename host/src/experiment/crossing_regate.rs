@@ -53,6 +53,7 @@ pub fn regate(
             Some(Ok((cand, rigid))) => {
                 r.gate_advance = cand.advance.distance;
                 r.gate_limited_by = format!("{:?}", cand.advance.limited_by);
+                r.gate_stop_limit = Some(cand.advance.stop_limit());
                 r.rigid_advance = rigid.distance;
             }
             Some(Err(e)) => return Err(e.clone()),

@@ -27,7 +27,7 @@ mod command;
 
 use assembly::place_of;
 pub use assembly::{formed, formed_with, pilot_sets};
-pub use command::{crossing_command, load_terrain, render, CrossingArgs};
+pub use command::{crossing_command, load_terrain, render, CrossingArgs, Drive};
 
 /// Planner settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,6 +52,10 @@ pub struct CrossingOptions {
     pub transfer: LoadTransfer,
     /// How the supports give and how high the bodies stand ([`AdvanceOptions::settling`]).
     pub settling: Option<Settling>,
+    /// The speed the drive holds through a stretch where the assembly would tip if it
+    /// stopped (m/s, [`AdvanceOptions::bridge_speed`]); 0 (the default): every advance must
+    /// stand. The host sets its crossing speed.
+    pub bridge_speed: f64,
 }
 
 impl CrossingOptions {
@@ -67,6 +71,7 @@ impl CrossingOptions {
             max_drop: self.max_drop,
             transfer: Some(self.transfer),
             settling: self.settling,
+            bridge_speed: self.bridge_speed,
             horizon: required + 0.01,
         }
     }
@@ -84,6 +89,7 @@ impl Default for CrossingOptions {
             drive_accel: 0.0,
             transfer: LoadTransfer::default(),
             settling: Some(Settling::default()),
+            bridge_speed: 0.0,
         }
     }
 }

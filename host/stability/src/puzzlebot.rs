@@ -22,8 +22,10 @@ use crate::model::{
 use crate::sag::{resting_bodies, Settling};
 pub use crate::transfer::{LoadTransfer, SOFT_SUPPORTS};
 pub use advance::{max_safe_advance, max_safe_advance_with, EVENT_EPS};
+pub use bridge::{tip_of, Tip, MAX_TIP_ANGLE};
 
 mod advance;
+pub mod bridge;
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use serde::{Deserialize, Serialize};
@@ -135,6 +137,12 @@ pub struct AdvanceOptions {
     /// compliance where a contact stands over a lower platform ([`crate::transfer`]). None:
     /// neither.
     pub settling: Option<Settling>,
+    /// The speed the drive holds through a stretch where the assembly's centre of mass lies
+    /// past its supports (m/s, [`bridge`]): such a stretch is proven if the assembly, tipping
+    /// as an inverted pendulum for the time the stretch takes, lands every contact and body
+    /// that reaches the platform ahead on its top, and the state after it is proven. The host
+    /// must not stop there ([`Advance::bridged`]). 0: no such stretch is proven.
+    pub bridge_speed: f64,
     /// Search no further than this (m).
     pub horizon: f64,
 }
@@ -151,6 +159,7 @@ impl Default for AdvanceOptions {
             max_drop: 0.0,
             transfer: None,
             settling: None,
+            bridge_speed: 0.0,
             horizon: 1.0,
         }
     }
@@ -189,6 +198,18 @@ pub struct Advance {
     pub distance: f64,
     /// What stops it there.
     pub limited_by: LimitedBy,
+    /// Stretches `[from, to]` (m of advance) proven only while the drive keeps its speed
+    /// through them ([`AdvanceOptions::bridge_speed`]): stopped there, the assembly tips.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub bridged: Vec<[f64; 2]>,
+}
+
+impl Advance {
+    /// The farthest advance at which the assembly may stand still: the start of the first
+    /// bridged stretch, or the whole distance.
+    pub fn stop_limit(&self) -> f64 {
+        self.bridged.first().map_or(self.distance, |b| b[0])
+    }
 }
 
 /// Adapter input errors.
@@ -233,6 +254,10 @@ pub(crate) fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
     [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]]
 }
 
+/// A contact touches a platform within this of its height (m): it rolls onto a platform up
+/// to this much higher than the assembly stands on.
+pub const LEVEL_TOLERANCE: f64 = 1e-3;
+
 /// Contact of each robot contact point with the terrain at the assembly level.
 #[derive(Debug, Clone, PartialEq)]
 enum Touch {
@@ -256,10 +281,13 @@ fn touches(
             contact_points(r.kind, params)
                 .iter()
                 .map(|(b, _)| match terrain.support_at(world(&moved, *b)) {
-                    Some((h, mu)) if h <= level + 1e-3 && h >= level - max_drop - 1e-3 => {
+                    Some((h, mu))
+                        if h <= level + LEVEL_TOLERANCE
+                            && h >= level - max_drop - LEVEL_TOLERANCE =>
+                    {
                         Touch::On(mu, h)
                     }
-                    Some((h, _)) if h > level + 1e-3 => Touch::Blocked,
+                    Some((h, _)) if h > level + LEVEL_TOLERANCE => Touch::Blocked,
                     _ => Touch::Free,
                 })
                 .collect()

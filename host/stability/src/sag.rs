@@ -342,7 +342,7 @@ pub(super) mod tests {
 
     /// A 1 kg plate under 10 N/kg with its centre of mass at `com`, on wheel-like contacts
     /// (point, gap).
-    pub(in crate::sag) fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
+    pub(crate) fn plate(contacts: &[([f64; 2], f64)], com: [f64; 2]) -> Assembly {
         Assembly {
             gravity: [0.0, 0.0, -10.0],
             modules: vec![Module {

@@ -95,6 +95,7 @@ fn rigid_row_over_a_gap_edge_stops_at_the_com_bound() {
         max_drop: 0.0,
         transfer: None,
         settling: None,
+        bridge_speed: 0.0,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -149,6 +150,7 @@ fn rigid_two_by_two_mesh_over_a_gap_edge_stops_at_the_com_bound() {
         max_drop: 0.0,
         transfer: None,
         settling: None,
+        bridge_speed: 0.0,
         horizon: 1.0,
     };
     let adv = max_safe_advance_with(&a, &p, &cliff(edge), 0.0, 0.01, opt).unwrap();
@@ -213,6 +215,7 @@ fn a_cantilevered_chain_breaks_its_anchor_before_it_tips() {
             max_drop: 0.0,
             transfer: None,
             settling: None,
+            bridge_speed: 0.0,
             horizon: 1.0,
         },
     )

@@ -53,6 +53,11 @@ pub struct CrossingArgs {
     /// `puzzlebot-gate crossing`).
     #[arg(long)]
     pub drive_accel: Option<f64>,
+    /// Speed the drive holds through a stretch where the assembly would tip if it stopped
+    /// (m/s; default: the host's crossing speed in `puzzlebot plan crossing`, 0 (every
+    /// advance must stand) in `puzzlebot-gate crossing`).
+    #[arg(long)]
+    pub speed: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -66,31 +71,45 @@ impl CrossingArgs {
             self.robots,
             self.pilots,
             self.start_y,
-            self.drive_accel.unwrap_or(0.0),
+            Drive {
+                accel: self.drive_accel.unwrap_or(0.0),
+                speed: self.speed.unwrap_or(0.0),
+            },
             self.json,
         )
     }
 }
 
+/// The crossing drive a plan's proof covers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drive {
+    /// Acceleration starting and braking (m/s², [`CrossingOptions::drive_accel`]).
+    pub accel: f64,
+    /// Speed held through stretches where stopping would tip the assembly (m/s,
+    /// [`CrossingOptions::bridge_speed`]).
+    pub speed: f64,
+}
+
 /// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
-/// proof covering a drive that starts and brakes at `drive_accel` (m/s²).
+/// proof covering `drive`.
 pub fn crossing_command(
     terrain: &std::path::Path,
     robots: usize,
     pilots: usize,
     start_y: f64,
-    drive_accel: f64,
+    drive: Drive,
     json: bool,
 ) -> Result<String, PlanError> {
-    if !(drive_accel.is_finite() && drive_accel >= 0.0) {
-        return Err(PlanError::Input(format!(
-            "--drive-accel: must be ≥ 0, got {drive_accel}"
-        )));
+    for (name, v) in [("--drive-accel", drive.accel), ("--speed", drive.speed)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(PlanError::Input(format!("{name}: must be ≥ 0, got {v}")));
+        }
     }
     let t = load_terrain(terrain)?;
     let opt = CrossingOptions {
         start_y,
-        drive_accel,
+        drive_accel: drive.accel,
+        bridge_speed: drive.speed,
         ..CrossingOptions::default()
     };
     let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;

@@ -1,14 +1,15 @@
 //! The gate's scan along a crossing: how far a PuzzleBot assembly can advance before it tips,
 //! a connection fails, or a hanging robot stalls against an edge or sags into a gap.
 
+use super::bridge::{tip_of, Tip, MAX_TIP_ANGLE};
 use super::{
-    assembly_level, body_corners, build_model_with, check, touches, world, AdapterError, Advance,
-    AdvanceOptions, LimitedBy, PuzzleAssembly, Touch,
+    assembly_level, body_corners, build_model_with, check, contact_points, touches, world,
+    AdapterError, Advance, AdvanceOptions, LimitedBy, PuzzleAssembly, Touch, LEVEL_TOLERANCE,
 };
 use crate::events::{body_events, front_events, support_events};
 use crate::judge::{judge_model, judge_transfer};
 use crate::model::Assembly;
-use crate::sag::{droop, edge_stall, Settling};
+use crate::sag::{droop, edge_stall, settle_articulated, Settling};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 
@@ -66,6 +67,7 @@ pub fn max_safe_advance_with(
         return Ok(Advance {
             distance: 0.0,
             limited_by: LimitedBy::Tips,
+            bridged: vec![],
         });
     };
     let dir = [heading.cos(), heading.sin()];
@@ -74,7 +76,8 @@ pub fn max_safe_advance_with(
     let resting = opt.settling.is_some_and(|s| s.rest_on_bodies);
     // With resting bodies on, the platform under each robot's underside corners as well: a
     // robot may come to rest on it ([`crate::sag::resting_bodies`]).
-    let topology = |d: f64| {
+    type Topology = (Vec<Vec<Touch>>, Vec<Option<(f64, f64)>>);
+    let topology = |d: f64| -> Topology {
         let corners: Vec<Option<(f64, f64)>> = if resting {
             assembly
                 .robots
@@ -149,6 +152,7 @@ pub fn max_safe_advance_with(
         return Ok(Advance {
             distance: 0.0,
             limited_by: why,
+            bridged: vec![],
         });
     }
     // Just after every support event, and every `step` (a change found there is located by
@@ -165,6 +169,123 @@ pub fn max_safe_advance_with(
     let n = (opt.horizon / step).ceil() as usize;
     checks.extend((1..=n).map(|k| ((k as f64 * step).min(opt.horizon), false)));
     checks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The first topology change after `from` (whose topology is `was`) up to the check `d`:
+    // the advances just before and just after it, and the topology after.
+    let locate = |from: f64, d: f64, event: bool, was: &Topology| -> (f64, f64, Topology) {
+        if event {
+            return ((d - 2.0 * EVENT_EPS).max(from), d, topology(d));
+        }
+        let (mut lo, mut hi) = (from, d);
+        while hi - lo > 1e-6 {
+            let mid = 0.5 * (lo + hi);
+            if topology(mid) == *was {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        (lo, hi, topology(hi))
+    };
+    // Whether the assembly, tipping from `lo` on as `tips` say for `(to − lo)` / speed s,
+    // lands every contact of `after` that `before` lacks on its platform (within the
+    // tolerance a contact rolls up onto), and every body corner that reaches a platform
+    // between `lo` and `to` on its top ([`bridge`]).
+    // Each point's drop adds robot i's settled sink there before the stretch (`sag`).
+    let lands = |lo: f64,
+                 to: f64,
+                 tips: &[Tip],
+                 before: &Topology,
+                 after: &Topology,
+                 sag: &dyn Fn(usize, [f64; 2]) -> f64| {
+        let t = (to - lo) / opt.bridge_speed;
+        let angles: Vec<f64> = tips.iter().map(|tip| tip.angle_after(t)).collect();
+        let tipped = |p: [f64; 2]| {
+            tips.iter()
+                .zip(&angles)
+                .map(|(tip, a)| tip.lever(p).max(0.0) * a)
+                .fold(0.0, f64::max)
+        };
+        for (i, r) in assembly.robots.iter().enumerate() {
+            let p = params.robot(r.kind);
+            let lift = f64::from(p.plant.caster_lift).max(0.0);
+            let moved = r.translated(at(to));
+            for (j, (b, wheel)) in contact_points(r.kind, params).iter().enumerate() {
+                let (Some(Touch::On(_, h)), Some(was)) = (after.0[i].get(j), before.0[i].get(j))
+                else {
+                    continue;
+                };
+                let clear = level - h + if *wheel { 0.0 } else { lift };
+                let q = world(&moved, *b);
+                if !matches!(was, Touch::On(..)) && sag(i, q) + tipped(q) > clear + LEVEL_TOLERANCE
+                {
+                    return Some(LimitedBy::StepUp { robot: i });
+                }
+            }
+            let Some(s) = &opt.settling else {
+                continue;
+            };
+            let from = r.translated(at(lo));
+            for c in body_corners(r.kind, params) {
+                let q = world(&moved, c);
+                let Some((h, _)) = terrain.support_at(q) else {
+                    continue;
+                };
+                let was = terrain.support_at(world(&from, c)).map(|x| x.0);
+                if was != Some(h) && sag(i, q) + tipped(q) > level + s.body_clearance - h + 1e-9 {
+                    return Some(LimitedBy::StepUp { robot: i });
+                }
+            }
+        }
+        None
+    };
+    // Drive on from `hi` (just past `lo`), where the assembly starts to tip as `first` says,
+    // over the checks from `k` on: the advance where it stands again, landed and proven, and
+    // the index of the next check; or why not.
+    type Bridged = Result<(f64, usize), LimitedBy>;
+    let bridge = |lo: f64, hi: f64, first: Tip, mut k: usize| -> Result<Bridged, AdapterError> {
+        let mut tips = vec![first];
+        let (mut was, mut was_at) = (topology(hi), hi);
+        // The sag the supports settle to before the stretch, as the gate's settling gives it.
+        let before = build_model_with(assembly, params, terrain, level, at(lo), &opt)?;
+        let settled = opt.settling.map(|s| settle_articulated(&before, &s));
+        let sag = |i: usize, p: [f64; 2]| match &settled {
+            None => 0.0,
+            Some(None) => f64::INFINITY,
+            Some(Some(sg)) => sg.sink(i, p).max(0.0),
+        };
+        while let Some(&(d, event)) = checks.get(k) {
+            k += 1;
+            let t = (was_at - lo) / opt.bridge_speed;
+            if tips.iter().any(|tip| tip.angle_after(t) > MAX_TIP_ANGLE) {
+                return Ok(Err(LimitedBy::Tips));
+            }
+            let st = topology(d);
+            if st == was {
+                was_at = d;
+                continue;
+            }
+            let (_, h, st) = locate(was_at, d, event, &was);
+            match judge(h, &st.0)? {
+                Some(LimitedBy::Tips) => {
+                    let m = build_model_with(assembly, params, terrain, level, at(h), &opt)?;
+                    let Some(tip) = tip_of(&m, opt.drive_accel) else {
+                        return Ok(Err(LimitedBy::Tips));
+                    };
+                    tips.push(tip);
+                    (was, was_at) = (st, h);
+                    continue;
+                }
+                Some(why) => return Ok(Err(why)),
+                None => {}
+            }
+            if let Some(why) = lands(lo, h, &tips, &was, &st, &sag) {
+                return Ok(Err(why));
+            }
+            let why = transfer(lo, h)?.map_or_else(|| droops(h), |w| Ok(Some(w)))?;
+            return Ok(why.map_or(Ok((h, k)), Err));
+        }
+        Ok(Err(LimitedBy::Tips))
+    };
     // Where a front corner reaches a platform, and whether a hanging robot's body meets its
     // edge face there.
     let mut fronts: Vec<f64> = if opt.settling.is_some() {
@@ -174,14 +295,40 @@ pub fn max_safe_advance_with(
     };
     fronts.reverse();
     let mut last = 0.0;
-    for (d, event) in checks {
+    let mut bridged: Vec<[f64; 2]> = vec![];
+    // Fronts reached within a bridged stretch have landed: [`bridge`] proved them.
+    let mut landed_until = f64::NEG_INFINITY;
+    let mut k = 0;
+    while let Some(&(d, event)) = checks.get(k) {
+        k += 1;
         while fronts.last().is_some_and(|&e| e < d) {
             let e = fronts.pop().unwrap_or(d);
+            if e <= landed_until {
+                continue;
+            }
             if let Some(why) = stall(e - EVENT_EPS, e + EVENT_EPS)? {
                 return Ok(Advance {
                     distance: (e - EVENT_EPS).max(last),
                     limited_by: why,
+                    bridged,
                 });
+            }
+        }
+        let st = topology(d);
+        // A support left and the centre of mass lies past the rest: drive through to the
+        // next state that stands, if it lands.
+        // A stretch that cannot be proven standing falls through to the checks below.
+        if opt.bridge_speed > 0.0 && st != cur {
+            let (lo, hi, after) = locate(last, d, event, &cur);
+            if judge(hi, &after.0)? == Some(LimitedBy::Tips) {
+                let m = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
+                if let Some(tip) = tip_of(&m, opt.drive_accel) {
+                    if let Ok((to, next)) = bridge(lo, hi, tip, k)? {
+                        bridged.push([lo, to]);
+                        (cur, last, k, landed_until) = (topology(to), to, next, to);
+                        continue;
+                    }
+                }
             }
         }
         // The sag grows with the advance: the last check before is the answer.
@@ -189,33 +336,19 @@ pub fn max_safe_advance_with(
             return Ok(Advance {
                 distance: last,
                 limited_by: why,
+                bridged,
             });
         }
-        let mut st = topology(d);
         if st == cur {
             last = d;
             continue;
         }
-        let (mut lo, mut hi) = if event {
-            ((d - 2.0 * EVENT_EPS).max(last), d)
-        } else {
-            (last, d)
-        };
-        if !event {
-            while hi - lo > 1e-6 {
-                let mid = 0.5 * (lo + hi);
-                if topology(mid) == cur {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            st = topology(hi);
-        }
+        let (lo, hi, st) = locate(last, d, event, &cur);
         if let Some(why) = judge(hi, &st.0)?.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
             return Ok(Advance {
                 distance: lo,
                 limited_by: why,
+                bridged,
             });
         }
         cur = st;
@@ -224,5 +357,6 @@ pub fn max_safe_advance_with(
     Ok(Advance {
         distance: opt.horizon,
         limited_by: LimitedBy::Horizon,
+        bridged,
     })
 }
