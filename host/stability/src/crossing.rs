@@ -8,8 +8,9 @@
 //! needs to advance `required` metres until every robot's centre stands on another platform;
 //! the gate ([`max_safe_advance_with`]) says how far it may advance proven stable. The margin
 //! is the gate's distance less the required one: ≥ 0 crosses. Candidates that cross are
-//! ranked by the smallest internal stability margin (SOCP (42)) the gate finds at samples
-//! along the crossing, those that do not by how far short they stop.
+//! ranked first by whether they may stop anywhere (no stretch proven only at the crossing
+//! speed), then by the smallest internal stability margin (SOCP (42)) the gate finds at
+//! samples along the crossing; those that do not cross by how far short they stop.
 
 use crate::gate::evaluate;
 use crate::puzzlebot::{
@@ -238,8 +239,9 @@ fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanErro
     Ok(())
 }
 
-/// Best first: crossing candidates by their smallest stability margin, the others by how
-/// far short they stop.
+/// Best first: crossing candidates that may stop anywhere before those with a stretch proven
+/// only at speed ([`Advance::bridged`]), each by their smallest stability margin; the others
+/// by how far short they stop.
 fn ranked(mut out: Vec<Candidate>, opt: &CrossingOptions) -> Result<Vec<Candidate>, PlanError> {
     if out.is_empty() {
         return Err(PlanError::Input(format!(
@@ -249,8 +251,9 @@ fn ranked(mut out: Vec<Candidate>, opt: &CrossingOptions) -> Result<Vec<Candidat
     }
     let key = |c: &Candidate| c.stability_margin.unwrap_or(f64::INFINITY);
     out.sort_by(|a, b| {
+        let stands = |c: &Candidate| c.advance.bridged.is_empty();
         b.crosses().cmp(&a.crosses()).then(if a.crosses() {
-            key(b).total_cmp(&key(a))
+            stands(b).cmp(&stands(a)).then(key(b).total_cmp(&key(a)))
         } else {
             b.margin.total_cmp(&a.margin)
         })

@@ -133,6 +133,23 @@ pub fn crossing_command(
     })
 }
 
+/// `crosses`, with the stretches where the drive must keep its speed, or `refused`.
+fn verdict_of(c: &Candidate) -> String {
+    if !c.crosses() {
+        return "refused".into();
+    }
+    if c.advance.bridged.is_empty() {
+        return "crosses".into();
+    }
+    let at: Vec<String> = c
+        .advance
+        .bridged
+        .iter()
+        .map(|b| format!("{:.0}-{:.0}", b[0] * 1e3, b[1] * 1e3))
+        .collect();
+    format!("crosses; no stop at {} mm", at.join(", "))
+}
+
 /// The ranking as a table (best first): shape, pilots, heading, α, required advance, the
 /// gate's advance and what limits it, margin, verdict.
 pub fn render(cands: &[Candidate]) -> String {
@@ -159,7 +176,7 @@ pub fn render(cands: &[Candidate]) -> String {
             c.margin * 1e3,
             c.stability_margin
                 .map_or("-".to_string(), |m| format!("{m:.3}")),
-            if c.crosses() { "crosses" } else { "refused" }
+            verdict_of(c)
         ));
     }
     s

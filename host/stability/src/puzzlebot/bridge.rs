@@ -209,7 +209,10 @@ mod tests {
         m.modules[0].com = [0.0, 0.0, 0.02];
         let t = tip_of(&m, 0.0).expect("tips");
         assert!((t.excess - 0.02).abs() < 1e-12 && (t.height - 0.02).abs() < 1e-12);
-        assert!((t.dir[0] - 1.0).abs() < 1e-12 && t.dir[1].abs() < 1e-12, "{t:?}");
+        assert!(
+            (t.dir[0] - 1.0).abs() < 1e-12 && t.dir[1].abs() < 1e-12,
+            "{t:?}"
+        );
         assert!((t.pivot[0] - 0.05).abs() < 1e-12 && (t.pivot[1] - 0.01).abs() < 1e-12);
         // One point mass 20 mm out and 20 mm up: I = m(e² + h²), ω² = g h / (e² + h²).
         assert!((t.rate2 - 10.0 * 0.02 / 8e-4).abs() < 1e-9);
