@@ -1,5 +1,6 @@
 //! PuzzleBot adapter: a rigid mesh advancing over a gap edge stops at the centre-of-mass bound.
 
+use puzzlebot_params::formation::{self, Shape};
 use puzzlebot_params::terrain::{Platform, Terrain};
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_stability::puzzlebot::*;
@@ -367,5 +368,54 @@ fn a_front_pilot_tips_when_its_front_wheels_leave_unless_the_anchor_holds_a_pull
     assert!(
         pulls.distance > slides.distance + 0.01,
         "{pulls:?} vs {slides:?}"
+    );
+}
+
+/// A line of six, its pilot at the back, 40° to a 30 mm gap whose far platform is 6 mm lower,
+/// stands on nothing that holds it for a few millimetres where a caster leaves the edge
+/// before the next contact arrives. The gate proves that stretch at a crossing speed of
+/// 44.6 mm/s (the drive braking at v / τ, τ = 50 ms, as the host's) and lists it; at 20 mm/s
+/// the line tips further before it lands, and the gate stops where the stretch begins.
+#[test]
+fn a_stretch_without_support_is_proven_only_at_speed() {
+    let terrain = Terrain {
+        platforms: vec![
+            Platform::rect("near", [-1.0, -1.0], [0.3, 1.0], 0.006),
+            Platform::rect("far", [0.33, -1.0], [1.6, 1.0], 0.0),
+        ],
+    };
+    let tau = 0.05;
+    let line = |speed: f64| {
+        let opt = puzzlebot_stability::crossing::CrossingOptions {
+            headings: vec![40f64.to_radians()],
+            drive_accel: 0.0446 / tau,
+            bridge_speed: speed,
+            ..Default::default()
+        };
+        let params = FleetParams::default();
+        let shape = Shape::Line(6);
+        let links = formation::layout(shape, &params.non_pilot.geometry).1;
+        puzzlebot_stability::crossing::plan_formed(&terrain, &params, shape, &[5], &links, &opt)
+            .expect("plan")
+            .remove(0)
+    };
+    let fast = line(0.0446);
+    assert!(
+        fast.crosses() && !fast.advance.bridged.is_empty(),
+        "{fast:?}"
+    );
+    for b in &fast.advance.bridged {
+        assert!(b[0] < b[1] && b[1] - b[0] < 0.01, "{b:?}");
+    }
+    let stop = fast.advance.stop_limit();
+    assert!(stop < fast.required);
+    let slow = line(0.02);
+    assert!(
+        !slow.crosses() && slow.advance.bridged.is_empty(),
+        "{slow:?}"
+    );
+    assert!(
+        (slow.advance.distance - stop).abs() < 0.005,
+        "{slow:?} vs {stop}"
     );
 }
