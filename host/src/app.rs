@@ -51,6 +51,55 @@ pub fn progress_bar(len: f64, what: &str) -> indicatif::ProgressBar {
     pb
 }
 
+/// Progress of a long job of `len` steps on stderr: a bar on a terminal, one line per tenth
+/// of the job when piped or logged (where a bar does not show), nothing when `show` is off.
+pub struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    what: String,
+    len: u64,
+    done: std::sync::atomic::AtomicU64,
+    start: std::time::Instant,
+    show: bool,
+}
+
+impl Progress {
+    /// A job of `len` steps of `what` (`"series"`, `"cases"`).
+    pub fn new(len: usize, what: &str, show: bool) -> Progress {
+        use std::io::IsTerminal;
+        let bar = (show && std::io::stderr().is_terminal()).then(|| progress_bar(len as f64, what));
+        Progress {
+            bar,
+            what: what.to_string(),
+            len: len as u64,
+            done: std::sync::atomic::AtomicU64::new(0),
+            start: std::time::Instant::now(),
+            show,
+        }
+    }
+
+    /// One step done.
+    pub fn inc(&self) {
+        let n = self.done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if let Some(b) = &self.bar {
+            b.inc(1);
+        } else if self.show && (n % (self.len / 10).max(1) == 0 || n == self.len) {
+            eprintln!(
+                "{} {n}/{} after {:.0} s",
+                self.what,
+                self.len,
+                self.start.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    /// The job is over: clear the bar.
+    pub fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
 /// Start the link and pose input a fleet config describes.
 pub async fn start_host(fleet: &Fleet) -> anyhow::Result<(FleetLink, PoseInput)> {
     let c = &fleet.config;

@@ -428,12 +428,9 @@ pub fn command(
     let (d, n) = match regate {
         None => {
             let n = super::crossing::series_count(opt);
-            let pb = crate::app::progress_bar(n as f64, "series");
-            if !progress {
-                pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            }
-            let d = super::crossing::run(opt, &|| pb.inc(1));
-            pb.finish_and_clear();
+            let pb = crate::app::Progress::new(n, "series", progress);
+            let d = super::crossing::run(opt, &|| pb.inc());
+            pb.finish();
             (d, format!("{n} series"))
         }
         Some(file) => {
@@ -442,23 +439,17 @@ pub fn command(
             let mut d: CrossingData = serde_json::from_str(&text)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             let n = super::crossing_regate::stored_cases(&d);
-            let pb = crate::app::progress_bar(n as f64, "cases");
-            if !progress {
-                pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            }
+            let pb = crate::app::Progress::new(n, "cases", progress);
             let t0 = std::time::Instant::now();
-            super::crossing_regate::regate(&mut d, opt.threads, &|| pb.inc(1))
+            super::crossing_regate::regate(&mut d, opt.threads, &|| pb.inc())
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-            pb.finish_and_clear();
+            pb.finish();
             let tips = super::crossing_regate::pending_tips(&d);
             if tips > 0 {
-                let pb = crate::app::progress_bar(tips as f64, "tipping points");
-                if !progress {
-                    pb.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-                }
-                super::crossing_regate::fill_tips(&mut d, opt.threads, &|| pb.inc(1))
+                let pb = crate::app::Progress::new(tips, "tipping points", progress);
+                super::crossing_regate::fill_tips(&mut d, opt.threads, &|| pb.inc())
                     .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-                pb.finish_and_clear();
+                pb.finish();
             }
             d.wall_s = t0.elapsed().as_secs_f64();
             (d, format!("{n} cases"))
