@@ -82,7 +82,7 @@ impl Progress {
         let n = self.done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         if let Some(b) = &self.bar {
             b.inc(1);
-        } else if self.show && (n % (self.len / 10).max(1) == 0 || n == self.len) {
+        } else if self.show && (n.is_multiple_of((self.len / 10).max(1)) || n == self.len) {
             eprintln!(
                 "{} {n}/{} after {:.0} s",
                 self.what,
