@@ -317,10 +317,15 @@ pub fn max_safe_advance_with(
         let st = topology(d);
         // A support left and the centre of mass lies past the rest: drive through to the
         // next state that stands, if it lands.
-        // A stretch that cannot be proven standing falls through to the checks below.
+        // A stretch that cannot be proven standing falls through to the checks below, which
+        // reuse the change located and judged here.
+        let mut judged = None;
         if opt.bridge_speed > 0.0 && st != cur {
             let (lo, hi, after) = locate(last, d, event, &cur);
-            if judge(hi, &after.0)? == Some(LimitedBy::Tips) {
+            let why = judge(hi, &after.0)?;
+            let tips = why == Some(LimitedBy::Tips);
+            judged = Some((lo, hi, after, why));
+            if tips {
                 let m = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
                 if let Some(tip) = tip_of(&m, opt.drive_accel) {
                     if let Ok((to, next)) = bridge(lo, hi, tip, k)? {
@@ -343,8 +348,15 @@ pub fn max_safe_advance_with(
             last = d;
             continue;
         }
-        let (lo, hi, st) = locate(last, d, event, &cur);
-        if let Some(why) = judge(hi, &st.0)?.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
+        let (lo, hi, st, why) = match judged {
+            Some(j) => j,
+            None => {
+                let (lo, hi, st) = locate(last, d, event, &cur);
+                let why = judge(hi, &st.0)?;
+                (lo, hi, st, why)
+            }
+        };
+        if let Some(why) = why.map_or_else(|| transfer(lo, hi), |w| Ok(Some(w)))? {
             return Ok(Advance {
                 distance: lo,
                 limited_by: why,
