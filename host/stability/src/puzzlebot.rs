@@ -377,20 +377,13 @@ pub fn build_model_with(
             if let Touch::On(mu, h) = touch {
                 let w = world(&moved, *b);
                 let m = if *wheel { *mu } else { 0.0 };
-                // Clear of its support by the drop to a lower platform, and a caster by its
-                // lift.
-                let lift = if *wheel {
-                    0.0
-                } else {
-                    f64::from(p.plant.caster_lift)
-                };
                 contacts.push(Contact {
                     module: format!("r{i}"),
                     point: [w[0], w[1], *h],
                     normal: None,
                     mu: [m, m],
                     x_axis: Some([r.yaw.cos(), r.yaw.sin(), 0.0]),
-                    gap: (level - h).max(0.0) + lift.max(0.0),
+                    gap: clearance(p, *wheel, level, *h),
                 });
             }
         }
@@ -526,6 +519,18 @@ fn body_contacts(
         }
     }
     out
+}
+
+/// How far a contact (a wheel, else a caster) of a robot with parameters `p` at the
+/// assembly's `level` stands clear of a platform of height `h` (m): the drop to a lower
+/// platform, and a caster's lift.
+pub(crate) fn clearance(p: &puzzlebot_params::RobotParams, wheel: bool, level: f64, h: f64) -> f64 {
+    let lift = if wheel {
+        0.0
+    } else {
+        f64::from(p.plant.caster_lift)
+    };
+    (level - h).max(0.0) + lift.max(0.0)
 }
 
 /// The four corners of a robot's underside in its body frame (m).

@@ -3,8 +3,9 @@
 
 use super::bridge::{tip_of, Tip, MAX_TIP_ANGLE};
 use super::{
-    assembly_level, body_corners, build_model_with, check, contact_points, touches, world,
-    AdapterError, Advance, AdvanceOptions, LimitedBy, PuzzleAssembly, Touch, LEVEL_TOLERANCE,
+    assembly_level, body_corners, build_model_with, check, clearance, contact_points, touches,
+    world, AdapterError, Advance, AdvanceOptions, LimitedBy, PuzzleAssembly, Touch,
+    LEVEL_TOLERANCE,
 };
 use crate::events::{body_events, front_events, support_events};
 use crate::judge::{judge_model, judge_transfer};
@@ -206,15 +207,13 @@ pub fn max_safe_advance_with(
                 .fold(0.0, f64::max)
         };
         for (i, r) in assembly.robots.iter().enumerate() {
-            let p = params.robot(r.kind);
-            let lift = f64::from(p.plant.caster_lift).max(0.0);
             let moved = r.translated(at(to));
             for (j, (b, wheel)) in contact_points(r.kind, params).iter().enumerate() {
                 let (Some(Touch::On(_, h)), Some(was)) = (after.0[i].get(j), before.0[i].get(j))
                 else {
                     continue;
                 };
-                let clear = level - h + if *wheel { 0.0 } else { lift };
+                let clear = clearance(params.robot(r.kind), *wheel, level, *h);
                 let q = world(&moved, *b);
                 if !matches!(was, Touch::On(..)) && sag(i, q) + tipped(q) > clear + LEVEL_TOLERANCE
                 {
@@ -315,10 +314,9 @@ pub fn max_safe_advance_with(
             }
         }
         let st = topology(d);
-        // A support left and the centre of mass lies past the rest: drive through to the
-        // next state that stands, if it lands.
-        // A stretch that cannot be proven standing falls through to the checks below, which
-        // reuse the change located and judged here.
+        // A support left and the assembly cannot stand: drive through to the next state that
+        // stands, if it lands. A stretch that cannot be proven falls through to the checks
+        // below, which reuse the change located and judged here.
         let mut judged = None;
         if opt.bridge_speed > 0.0 && st != cur {
             let (lo, hi, after) = locate(last, d, event, &cur);
