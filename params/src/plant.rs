@@ -74,6 +74,9 @@ pub struct Plant {
     pub wheel_load_fraction: f32,
     /// Caster distance from the centre along x (m), front and back (non-pilots).
     pub caster_offset: f32,
+    /// Radius of the ball casters (m, non-pilots): the arc a caster rolls over a platform
+    /// edge on. Not in THESIS; 4 mm (THESIS Fig 5.3 A).
+    pub caster_radius: f32,
     /// Sliding friction coefficient of the ball casters (non-pilots).
     pub caster_friction: f32,
     /// How far the ball casters stand clear of the ground when the robot rests level on its
@@ -115,6 +118,7 @@ impl Plant {
             wheel_axle_offset: if pilot { 0.016 } else { 0.0 },
             wheel_load_fraction: if pilot { 1.0 } else { 0.8 },
             caster_offset: 0.018,
+            caster_radius: 0.004,
             caster_friction: 0.05,
             caster_lift: 0.0005,
             yaw_inertia: if pilot { 4.3e-5 } else { 4.6e-5 },

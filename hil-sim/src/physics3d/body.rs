@@ -97,7 +97,7 @@ pub fn build(
         .build();
     colliders.insert_with_parent(chassis_col, chassis, bodies);
     if !p.plant.four_wheels {
-        let rc = cfg.caster_radius;
+        let rc = f64::from(p.plant.caster_radius);
         let c = f64::from(p.plant.caster_offset);
         // The casters stand `plant.caster_lift` clear of the ground (the gate's contact model
         // reads the same parameter).

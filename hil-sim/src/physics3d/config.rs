@@ -15,8 +15,6 @@ pub struct Config3d {
     /// mass. Not in THESIS; wheel, tyre and the last gear stage: 10 g (lighter wheels let
     /// the engine's iterative solver sag the chassis onto them by millimetres).
     pub wheel_mass: f64,
-    /// Radius of a non-pilot's ball casters (m). Not in THESIS; 4 mm (Fig 5.3 A).
-    pub caster_radius: f64,
     /// Height of the chassis underside above the ground (m). Not in THESIS; 5 mm.
     pub chassis_clearance: f64,
     /// Friction coefficient of the printed chassis on a platform. Not in THESIS; 0.3.
@@ -56,7 +54,6 @@ impl Default for Config3d {
             dt: 0.004,
             solver_iterations: 4,
             wheel_mass: 0.01,
-            caster_radius: 0.004,
             chassis_clearance: 0.005,
             chassis_friction: 0.3,
             coupling_height_from_com: true,
@@ -78,7 +75,6 @@ impl Config3d {
         let pos = [
             ("dt", self.dt),
             ("wheel_mass", self.wheel_mass),
-            ("caster_radius", self.caster_radius),
             ("catch_depth", self.catch_depth),
             ("fall_depth", self.fall_depth),
             ("contact_frequency", self.contact_frequency),

@@ -54,11 +54,11 @@ pub struct CrossSettings {
 /// half the change, so the speed lowers the overshoot without bounding it; the gate's check
 /// does not rely on it and bounds the peak by the undamped step's twice the change
 /// (`puzzlebot_stability::transfer::LoadTransfer`).
-pub fn quasi_static_speed(params: &FleetParams, world: &Config3d) -> f64 {
+pub fn quasi_static_speed(params: &FleetParams) -> f64 {
     let p = &params.non_pilot;
     let m = f64::from(p.mass.mass);
     let k = f64::from(p.coupling.connector_stiffness);
-    let r = world.caster_radius.min(f64::from(p.geometry.wheel_radius));
+    let r = f64::from(p.plant.caster_radius.min(p.geometry.wheel_radius));
     let delta = m * puzzlebot_sim::drive::G / k;
     let transfer = (2.0 * r * delta).sqrt();
     let period = std::f64::consts::TAU * (m / k).sqrt();
@@ -98,7 +98,7 @@ pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> Cross
 impl Default for CrossSettings {
     fn default() -> Self {
         CrossSettings {
-            speed: quasi_static_speed(&FleetParams::default(), &Config3d::default()),
+            speed: quasi_static_speed(&FleetParams::default()),
             gate_every: 0.005,
             overshoot: 0.025,
             settle_s: 0.5,
