@@ -37,6 +37,8 @@ mod sim_commands {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`… | head`) ends the program quietly instead of panicking in print.
+    sigpipe::reset();
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()

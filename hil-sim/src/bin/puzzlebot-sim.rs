@@ -48,6 +48,8 @@ struct Args {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`… | head`) ends the program quietly instead of panicking in print.
+    sigpipe::reset();
     let args = Args::parse();
     match run(args) {
         Ok(()) => ExitCode::SUCCESS,

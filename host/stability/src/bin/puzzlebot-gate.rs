@@ -57,6 +57,8 @@ enum Cmd {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`… | head`) ends the program quietly instead of panicking in print.
+    sigpipe::reset();
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Check {
