@@ -127,3 +127,52 @@ fn a_line_that_would_tip_if_it_stopped_over_the_gap_crosses_at_speed() {
         "{o:?}"
     );
 }
+
+/// The same line loses its link where its stretch begins, its firmware set to a failsafe
+/// timeout (50 ms) that would stop it within the stretch. Asked to hold its command through
+/// the stretch, it drives on past it and stands where the gate proves it can; with the plain
+/// failsafe it comes to rest inside the stretch, where the gate proves nothing.
+#[test]
+fn a_link_lost_in_the_stretch_is_driven_through() {
+    let mut params = FleetParams::default();
+    for p in [&mut params.pilot, &mut params.non_pilot] {
+        p.firmware.failsafe_timeout_ms = 50;
+    }
+    let obstacle = Obstacle {
+        width: 0.03,
+        drop: 0.006,
+    };
+    let terrain = obstacle.terrain();
+    let cfg = configs(&[6], &params)
+        .into_iter()
+        .find(|c| c.shape == "line 6" && c.pilots == "back")
+        .expect("line 6 with a back pilot");
+    let (cand, _) = predict(&cfg, obstacle, 40.0, &params).expect("predict");
+    let stretch = cand.advance.bridged[0];
+    let formed_asm = set_down(&cfg, &params).expect("formed");
+    let lose_link = |hold: bool| {
+        let s = CrossSettings {
+            live_gate: true,
+            hold_through_stretches: hold,
+            link_loss_at: Some(stretch[0]),
+            ..settings()
+        };
+        let sc = run_scenario(&formed_asm, &cand, &terrain, &params, 11, 0);
+        let mut w = World3d::new(&sc, s.world).expect("world");
+        drive3d::cross(&mut w, &cand, &terrain, &params, &s)
+    };
+    let held = lose_link(true);
+    assert!(
+        held.fell.is_empty()
+            && held.broke.is_empty()
+            && held.rest_advance > stretch[1]
+            && held.rest_advance < cand.advance.distance,
+        "stretch {stretch:?}, proven to {:.4}: {held:?}",
+        cand.advance.distance
+    );
+    let plain = lose_link(false);
+    assert!(
+        plain.rest_advance > stretch[0] && plain.rest_advance < stretch[1],
+        "stretch {stretch:?}: {plain:?}"
+    );
+}

@@ -43,6 +43,10 @@ pub struct Firmware {
     /// No valid frame from the host for this long drops the session and announces again
     /// with a fresh nonce (ms), so a restarted host can reconnect.
     pub relink_after_ms: u16,
+    /// Longest a [`puzzlebot_protocol::HostMsg::WheelSpeedHold`] keeps the wheels driving
+    /// without a further command (ms): the bound on how far a robot drives blind, 1 s (45 mm
+    /// at the crossing speed, against bridged stretches of about 10 mm).
+    pub max_hold_ms: u16,
 }
 
 impl Default for Firmware {
@@ -73,6 +77,7 @@ impl Default for Firmware {
             standstill_after_ms: 150,
             announce_interval_ms: 250,
             relink_after_ms: 1000,
+            max_hold_ms: 1000,
         }
     }
 }

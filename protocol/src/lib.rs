@@ -36,9 +36,10 @@ pub use session::{HostReceived, HostSession, RobotSession, PENDING_OFFERS};
 pub use update::{UpdateRefusal, UpdateState, UpdateStatus, UPDATE_CHUNK};
 
 /// Protocol version carried in every datagram's first byte. Version 2 added the
-/// announce's `reset_reason`, version 3 the over-the-air update messages ([`update`]); a
-/// frame of any other version is refused as `bad_version`.
-pub const PROTOCOL_VERSION: u8 = 3;
+/// announce's `reset_reason`, version 3 the over-the-air update messages ([`update`]),
+/// version 4 [`HostMsg::WheelSpeedHold`]; a frame of any other version is refused as
+/// `bad_version`.
+pub const PROTOCOL_VERSION: u8 = 4;
 /// Size of the fixed header (version, flags, robot id, 48-bit counter).
 pub const HEADER_LEN: usize = 10;
 /// Size of the truncated HMAC-SHA256 tag.

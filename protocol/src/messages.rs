@@ -208,6 +208,19 @@ pub enum HostMsg {
         /// The bytes.
         data: [u8; crate::update::UPDATE_CHUNK],
     },
+    /// [`HostMsg::WheelSpeed`] that the robot keeps driving for `hold_ms` after it arrives
+    /// even if no further command does (capped by the firmware's `max_hold_ms`): the stretch
+    /// of a crossing where the assembly stays up only while it moves, and stopping (the
+    /// failsafe) would tip it into the gap. The next drive command, stop or emergency stop
+    /// ends the hold.
+    WheelSpeedHold {
+        /// Left wheel RPM.
+        left_rpm: f32,
+        /// Right wheel RPM.
+        right_rpm: f32,
+        /// How long to keep driving without a further command (ms).
+        hold_ms: u16,
+    },
 }
 
 /// Fault and state flags in telemetry (bit set).
@@ -296,6 +309,11 @@ impl HostMsg {
             HostMsg::WheelSpeed {
                 left_rpm,
                 right_rpm,
+            }
+            | HostMsg::WheelSpeedHold {
+                left_rpm,
+                right_rpm,
+                ..
             } => [left_rpm, right_rpm]
                 .iter()
                 .all(|v| v.is_finite() && v.abs() <= MAX_COMMAND_RPM),

@@ -45,6 +45,7 @@ fn host_name(m: &HostMsg) -> &'static str {
         HostMsg::Ping { .. } => "Ping",
         HostMsg::UpdateBegin { .. } => "UpdateBegin",
         HostMsg::UpdateChunk { .. } => "UpdateChunk",
+        HostMsg::WheelSpeedHold { .. } => "WheelSpeedHold",
     }
 }
 
@@ -131,6 +132,18 @@ fn host_extremes() -> Vec<(HostMsg, HostMsg)> {
             HostMsg::UpdateChunk {
                 offset: u32::MAX,
                 data: [0xff; UPDATE_CHUNK],
+            },
+        ),
+        (
+            HostMsg::WheelSpeedHold {
+                left_rpm: 0.0,
+                right_rpm: 0.0,
+                hold_ms: 0,
+            },
+            HostMsg::WheelSpeedHold {
+                left_rpm: -MAX_COMMAND_RPM,
+                right_rpm: MAX_COMMAND_RPM,
+                hold_ms: u16::MAX,
             },
         ),
     ]

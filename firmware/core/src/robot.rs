@@ -12,7 +12,9 @@
 //! - only authenticated, fresh frames of the current session are acted on
 //!   ([`puzzlebot_protocol::RobotSession`]); drive commands older than the newest applied
 //!   one are ignored (latest wins; a late command is worse than a lost one);
-//! - no wheel-speed or raw-duty command for `failsafe_timeout_ms` → brake (failsafe);
+//! - no wheel-speed or raw-duty command for `failsafe_timeout_ms` → brake (failsafe), except
+//!   while a `WheelSpeedHold` runs (at most `max_hold_ms`: a stretch of a crossing where
+//!   stopping would tip the assembly); stop and emergency stop end a hold at once;
 //! - an emergency stop latches until `ClearEmergencyStop`; after the clear the robot
 //!   stays stopped until the next drive command; the latch survives session restarts;
 //! - no valid frame for `relink_after_ms` → drop the session and announce again with a
@@ -138,6 +140,9 @@ pub struct Robot<N: NonceSource> {
     failsafe: bool,
     last_rx_us: u64,
     last_drive_us: u64,
+    /// Until when (µs) a [`HostMsg::WheelSpeedHold`] keeps the wheels driving without a
+    /// further command; 0: no hold.
+    hold_until_us: u64,
     last_drive_counter: Option<u64>,
     last_estop_counter: Option<u64>,
     last_command_counter: u64,
@@ -186,6 +191,7 @@ impl<N: NonceSource> Robot<N> {
             failsafe: false,
             last_rx_us: 0,
             last_drive_us: 0,
+            hold_until_us: 0,
             last_drive_counter: None,
             last_estop_counter: None,
             last_command_counter: 0,
@@ -277,8 +283,15 @@ impl<N: NonceSource> Robot<N> {
         f
     }
 
+    /// Driving under a command that link silence may stop: any drive mode outside a hold.
+    fn driving(&self, now_us: u64) -> bool {
+        matches!(self.mode, DriveMode::Speed | DriveMode::RawDuty(_))
+            && now_us >= self.hold_until_us
+    }
+
     fn stop(&mut self) {
         self.mode = DriveMode::Stopped;
+        self.hold_until_us = 0;
         for w in &mut self.wheels {
             w.reset();
         }
@@ -314,17 +327,15 @@ impl<N: NonceSource> Robot<N> {
             link.restart(self.nonces.fresh_nonce());
             self.stats.relinks += 1;
             self.next_announce_us = now_us;
-            if matches!(self.mode, DriveMode::Speed | DriveMode::RawDuty(_)) {
+            if self.driving(now_us) {
                 self.failsafe = true;
                 self.stop();
             }
         }
 
-        // Failsafe: no drive command within the timeout.
+        // Failsafe: no drive command within the timeout (nor a hold still running).
         let timeout_us = u64::from(self.params.failsafe_timeout_ms) * 1000;
-        if matches!(self.mode, DriveMode::Speed | DriveMode::RawDuty(_))
-            && now_us.saturating_sub(self.last_drive_us) >= timeout_us
-        {
+        if self.driving(now_us) && now_us.saturating_sub(self.last_drive_us) >= timeout_us {
             self.failsafe = true;
             self.stop();
         }

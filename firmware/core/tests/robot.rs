@@ -207,6 +207,65 @@ fn speed_command_drives_and_failsafe_stops_within_one_period() {
     assert_eq!(l.robot.status().flags & flags::FAILSAFE, 0);
 }
 
+fn hold(l: f32, r: f32, hold_ms: u16) -> HostMsg {
+    HostMsg::WheelSpeedHold {
+        left_rpm: l,
+        right_rpm: r,
+        hold_ms,
+    }
+}
+
+/// Ticks from now until the robot brakes (µs after `from`), at most `limit` µs.
+fn brakes_after(l: &mut Link, from: u64, limit: u64) -> Option<u64> {
+    while l.now < from + limit {
+        if l.tick() == MotorOutputs::BRAKE {
+            return Some(l.now - from);
+        }
+    }
+    None
+}
+
+/// A held command keeps driving through link silence for its hold, then the failsafe
+/// brakes within a period; the hold never outlasts `max_hold_ms`.
+#[test]
+fn a_held_command_drives_through_silence_for_its_hold_only() {
+    let timeout = u64::from(Firmware::default().failsafe_timeout_ms) * 1000;
+    let max = u64::from(Firmware::default().max_hold_ms) * 1000;
+    let mut l = Link::new();
+    l.send(&hold(200.0, 200.0, 600)).unwrap();
+    let from = l.now;
+    let t = brakes_after(&mut l, from, 2 * max).expect("brakes");
+    assert!(t > timeout && t >= 600_000 && t < 600_000 + PERIOD, "{t}");
+    assert_ne!(l.robot.status().flags & flags::FAILSAFE, 0);
+
+    let mut l = Link::new();
+    l.send(&hold(200.0, 200.0, u16::MAX)).unwrap();
+    let from = l.now;
+    let t = brakes_after(&mut l, from, 3 * max).expect("brakes");
+    assert!(t >= max && t < max + PERIOD, "{t}");
+}
+
+/// Stop and emergency stop end a hold at once; a plain command after a hold brings the
+/// ordinary failsafe back.
+#[test]
+fn stop_and_plain_commands_end_a_hold() {
+    let timeout = u64::from(Firmware::default().failsafe_timeout_ms) * 1000;
+    for end in [HostMsg::Stop, HostMsg::EmergencyStop] {
+        let mut l = Link::new();
+        l.send(&hold(200.0, 200.0, 900)).unwrap();
+        assert!(!l.tick().is_stopped());
+        l.send(&end).unwrap();
+        assert_eq!(l.tick(), MotorOutputs::BRAKE);
+    }
+    let mut l = Link::new();
+    l.send(&hold(200.0, 200.0, 900)).unwrap();
+    l.tick();
+    l.send(&speed(200.0, 200.0)).unwrap();
+    let from = l.now;
+    let t = brakes_after(&mut l, from, 900_000).expect("brakes");
+    assert!(t >= timeout && t < timeout + PERIOD, "{t}");
+}
+
 #[test]
 fn commands_keep_the_failsafe_away() {
     let mut l = Link::new();

@@ -25,8 +25,12 @@ pub struct Onboard {
     host_nonce: u64,
     next_tick_us: u64,
     next_cmd_us: u64,
-    /// Wheel-speed command streamed to the robot (RPM, left and right).
+    /// Wheel-speed command streamed to the robot (RPM, left and right); `None`: nothing
+    /// reaches it (the firmware's failsafe stops it).
     pub command: Option<[f32; 2]>,
+    /// How long the robot is to keep the command through link silence (ms; 0: the plain
+    /// failsafe), sent as [`HostMsg::WheelSpeedHold`].
+    pub hold_ms: u16,
     /// Bridge outputs of the last tick.
     pub outputs: MotorOutputs,
 }
@@ -67,6 +71,7 @@ impl Onboard {
             next_tick_us: period,
             next_cmd_us: 0,
             command: None,
+            hold_ms: 0,
             outputs: MotorOutputs::COAST,
         })
     }
@@ -93,9 +98,17 @@ impl Onboard {
         if now >= self.next_cmd_us {
             self.next_cmd_us = now + COMMAND_PERIOD_US;
             if let (Some([l, r]), true) = (self.command, self.host.is_established()) {
-                let msg = HostMsg::WheelSpeed {
-                    left_rpm: l,
-                    right_rpm: r,
+                let msg = if self.hold_ms > 0 {
+                    HostMsg::WheelSpeedHold {
+                        left_rpm: l,
+                        right_rpm: r,
+                        hold_ms: self.hold_ms,
+                    }
+                } else {
+                    HostMsg::WheelSpeed {
+                        left_rpm: l,
+                        right_rpm: r,
+                    }
                 };
                 if let Ok(n) = self.host.send(&msg, &mut buf) {
                     // Rejections are counted by the firmware itself.

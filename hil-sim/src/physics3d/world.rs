@@ -276,6 +276,14 @@ impl World3d {
         }
     }
 
+    /// Every robot's commands from now on ask it to keep driving `hold_ms` through link
+    /// silence (0: the plain failsafe).
+    pub fn hold_all(&mut self, hold_ms: u16) {
+        for r in &mut self.robots {
+            r.onboard.hold_ms = hold_ms;
+        }
+    }
+
     /// Advance one step.
     pub fn step(&mut self) {
         let dt = self.cfg.dt;

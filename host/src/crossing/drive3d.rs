@@ -36,6 +36,13 @@ pub struct CrossSettings {
     /// Stop at the first fall or opened connector (the host's crossing); experiments drive
     /// on to count the robots that still reach the far platform.
     pub stop_on_failure: bool,
+    /// Through a stretch the plan proves only at speed, ask the robots to keep driving when
+    /// the link falls silent ([`puzzlebot_protocol::HostMsg::WheelSpeedHold`]) until past
+    /// it: there the firmware's failsafe stop would tip the assembly.
+    pub hold_through_stretches: bool,
+    /// Fault injection: the advance (m) at which the host's commands stop reaching the
+    /// robots, which then only the firmware's failsafe stops; `None`: the link holds.
+    pub link_loss_at: Option<f64>,
     /// The 3-D world's settings.
     pub world: Config3d,
 }
@@ -104,6 +111,8 @@ impl Default for CrossSettings {
             settle_s: 0.5,
             live_gate: true,
             stop_on_failure: true,
+            hold_through_stretches: true,
+            link_loss_at: None,
             world: Config3d::default(),
         }
     }
@@ -340,14 +349,44 @@ pub fn cross(
             .iter()
             .any(|b| d >= b[0] - slack && d <= b[1] + slack)
     };
+    // Inside a widened stretch: how long the drive needs to leave it (ms, 0 outside).
+    let hold_ms = |d: f64| {
+        c.advance
+            .bridged
+            .iter()
+            .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
+            .map(|b| ((b[1] + slack - d) / s.speed * 1e3).ceil())
+            .fold(0.0, f64::max)
+            .min(f64::from(u16::MAX)) as u16
+    };
     let mut next_check = 0.0;
     let mut seen_events = w.events().len();
+    let mut linked = true;
+    // Without the link the robots stop on their own: by the longest hold and the failsafe
+    // timeout, and a second to come to rest.
+    let fw = [&params.pilot, &params.non_pilot].map(|p| p.firmware);
+    let silence_us = fw
+        .iter()
+        .map(|f| (u64::from(f.max_hold_ms) + u64::from(f.failsafe_timeout_ms)) * 1000)
+        .max()
+        .unwrap_or(0)
+        + 1_000_000;
+    let mut lost_us = u64::MAX;
     w.command_all(Some([rpm, rpm]));
-    while w.time_us() < t_limit {
+    while w.time_us() < t_limit && w.time_us().saturating_sub(lost_us) < silence_us {
         w.run_for(tick_us);
         let st = w.states();
         let d = advance_of(&st);
         out.advance = d;
+        if linked && s.link_loss_at.is_some_and(|at| d >= at) {
+            linked = false;
+            lost_us = w.time_us();
+            w.command_all(None);
+        }
+        if linked && s.hold_through_stretches {
+            // Looking one host period ahead: the hold must already run when the link fails.
+            w.hold_all(hold_ms(d + s.speed * tick_us as f64 * 1e-6));
+        }
         for e in &w.events()[seen_events..] {
             match *e {
                 Event3d::Fell { id, .. } => out.fell.push((id, d)),
@@ -364,7 +403,7 @@ pub fn cross(
         if (failed && s.stop_on_failure) || d >= goal {
             break;
         }
-        if s.live_gate && d >= next_check && !at_speed(d) {
+        if linked && s.live_gate && d >= next_check && !at_speed(d) {
             out.gate_checks += 1;
             if let Some(why) = gate_now(&st, &held(w), params, terrain, &opt, heading) {
                 out.gate_stop = Some((d, why));
@@ -373,7 +412,10 @@ pub fn cross(
             next_check = d + s.gate_every;
         }
     }
-    w.command_all(Some([0.0, 0.0]));
+    if linked {
+        w.hold_all(0);
+        w.command_all(Some([0.0, 0.0]));
+    }
     out.drive_s = (w.time_us() - t0) as f64 * 1e-6;
     let t_stop = w.time_us();
     out.peak_advance = out.advance;

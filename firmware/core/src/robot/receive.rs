@@ -39,7 +39,7 @@ impl<N: NonceSource> Robot<N> {
         self.last_estop_counter = None;
         self.last_command_counter = 0;
         self.reported_errors = self.encoder_errors;
-        if matches!(self.mode, DriveMode::Speed | DriveMode::RawDuty(_)) {
+        if self.driving(now_us) {
             self.stop();
         }
         // Telemetry right away: the first session frame proves the session to the host.
@@ -56,26 +56,42 @@ impl<N: NonceSource> Robot<N> {
         true
     }
 
+    /// Drive the wheels at `rpm` (left, right), kept `hold_ms` without a further command.
+    fn drive_speed(&mut self, counter: u64, rpm: [f32; 2], hold_ms: u16, now_us: u64) {
+        if self.estop {
+            self.stats.blocked_by_estop += 1;
+        } else if self.fresh_drive(counter) {
+            if self.mode != DriveMode::Speed {
+                for w in &mut self.wheels {
+                    w.reset();
+                }
+            }
+            self.wheels[0].set_target(rpm[0]);
+            self.wheels[1].set_target(rpm[1]);
+            self.mode = DriveMode::Speed;
+            self.failsafe = false;
+            self.last_drive_us = now_us;
+            self.hold_until_us = if hold_ms > 0 {
+                now_us + u64::from(hold_ms) * 1000
+            } else {
+                0
+            };
+        }
+    }
+
     fn apply(&mut self, counter: u64, msg: HostMsg, now_us: u64) {
         match msg {
             HostMsg::WheelSpeed {
                 left_rpm,
                 right_rpm,
+            } => self.drive_speed(counter, [left_rpm, right_rpm], 0, now_us),
+            HostMsg::WheelSpeedHold {
+                left_rpm,
+                right_rpm,
+                hold_ms,
             } => {
-                if self.estop {
-                    self.stats.blocked_by_estop += 1;
-                } else if self.fresh_drive(counter) {
-                    if self.mode != DriveMode::Speed {
-                        for w in &mut self.wheels {
-                            w.reset();
-                        }
-                    }
-                    self.wheels[0].set_target(left_rpm);
-                    self.wheels[1].set_target(right_rpm);
-                    self.mode = DriveMode::Speed;
-                    self.failsafe = false;
-                    self.last_drive_us = now_us;
-                }
+                let ms = hold_ms.min(self.params.max_hold_ms);
+                self.drive_speed(counter, [left_rpm, right_rpm], ms, now_us);
             }
             HostMsg::RawDuty { left, right } => {
                 if self.estop {
@@ -84,6 +100,7 @@ impl<N: NonceSource> Robot<N> {
                     for w in &mut self.wheels {
                         w.reset();
                     }
+                    self.hold_until_us = 0;
                     self.mode = DriveMode::RawDuty([left, right]);
                     self.failsafe = false;
                     self.last_drive_us = now_us;

@@ -73,6 +73,11 @@ pub fn check_host_bounds(msg: &HostMsg) {
         HostMsg::WheelSpeed {
             left_rpm,
             right_rpm,
+        }
+        | HostMsg::WheelSpeedHold {
+            left_rpm,
+            right_rpm,
+            ..
         } => {
             for v in [left_rpm, right_rpm] {
                 assert!(

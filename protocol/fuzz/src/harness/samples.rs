@@ -16,6 +16,11 @@ pub fn host_samples() -> Vec<HostMsg> {
             left_rpm: 123.5,
             right_rpm: -450.0,
         },
+        HostMsg::WheelSpeedHold {
+            left_rpm: -1000.0,
+            right_rpm: 1000.0,
+            hold_ms: u16::MAX,
+        },
         HostMsg::RawDuty {
             left: -1000,
             right: 1000,
