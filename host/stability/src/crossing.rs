@@ -5,7 +5,8 @@
 //! Every candidate (each shape of [`Shape::candidates`], each distinct set of pilot places,
 //! each heading) starts with its foremost body corner `clearance` behind the start platform's
 //! far edge, its front robot on the line y = `start_y`, and drives along its heading. It
-//! needs to advance `required` metres until every robot's centre stands on another platform;
+//! needs to advance `required` metres until every robot stands wholly on another platform
+//! (its underside over it, no wheel still on the start platform's edge);
 //! the gate ([`max_safe_advance_with`]) says how far it may advance proven stable. The margin
 //! is the gate's distance less the required one: ≥ 0 crosses. Candidates that cross are
 //! ranked first by whether they may stop anywhere (no stretch proven only at the crossing
@@ -14,8 +15,9 @@
 
 use crate::gate::evaluate;
 use crate::puzzlebot::{
-    assembly_level, build_model_with, max_safe_advance_with, support_events, AdapterError, Advance,
-    AdvanceOptions, LimitedBy, LoadTransfer, PuzzleAssembly, EVENT_EPS,
+    assembly_level, body_corners, build_model_with, contact_points, max_safe_advance_with,
+    support_events, world, AdapterError, Advance, AdvanceOptions, LimitedBy, LoadTransfer,
+    PuzzleAssembly, EVENT_EPS,
 };
 use crate::sag::Settling;
 use puzzlebot_params::formation::{self, Link, Shape};
@@ -306,11 +308,26 @@ fn candidate(
         .fold(f64::MIN, f64::max);
     let front = [edge - opt.clearance - reach, opt.start_y];
     let a = formed_with(shape, set, links, params, front, heading);
-    // Advance along the heading until every centre stands on another platform.
+    // Advance along the heading until every robot stands wholly on another platform: every
+    // underside corner over one, and every wheel a radius clear of the start platform, so
+    // that none still rests on its edge.
     let across = |d: f64| {
         a.robots.iter().all(|r| {
-            let p = [r.x + c * d, r.y + s * d];
-            platform_at(terrain, p).is_some_and(|i| i != start)
+            let moved = r.translated([c * d, s * d]);
+            let off_start = |p: [f64; 2]| platform_at(terrain, p).is_some_and(|i| i != start);
+            let (fs, fc) = moved.yaw.sin_cos();
+            let radius = f64::from(params.robot(r.kind).geometry.wheel_radius);
+            body_corners(r.kind, params)
+                .iter()
+                .all(|&b| off_start(world(&moved, b)))
+                && contact_points(r.kind, params)
+                    .iter()
+                    .filter(|(_, wheel)| *wheel)
+                    .all(|&(b, _)| {
+                        let q = world(&moved, b);
+                        platform_at(terrain, [q[0] - radius * fc, q[1] - radius * fs])
+                            != Some(start)
+                    })
         })
     };
     let limit = 4.0 * formation::footprint(shape, g)[0] + 1.0;
