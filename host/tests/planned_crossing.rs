@@ -8,11 +8,12 @@
 use puzzlebot_host::crossing::drive3d;
 use puzzlebot_host::crossing::drive3d::CrossSettings;
 use puzzlebot_host::experiment::crossing::{
-    configs, predict, run_scenario, set_down, settings, Obstacle,
+    configs, predict, run_scenario, set_down, settings, Config, Obstacle,
 };
+use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::World3d;
-use puzzlebot_stability::crossing::{formed, plan};
+use puzzlebot_stability::crossing::{formed, plan, Candidate};
 use puzzlebot_stability::puzzlebot::{max_safe_advance_with, AdvanceOptions};
 
 #[test]
@@ -62,6 +63,21 @@ fn cross_planned(drop: f64) {
     }
 }
 
+/// The terrain, the line of six with a back pilot and its planned candidate at 40° over a
+/// 30 mm gap whose far platform is 6 mm lower.
+fn line_of_six_over_30_mm(params: &FleetParams) -> (Terrain, Config, Candidate) {
+    let obstacle = Obstacle {
+        width: 0.03,
+        drop: 0.006,
+    };
+    let cfg = configs(&[6], params)
+        .into_iter()
+        .find(|c| c.shape == "line 6" && c.pilots == "back")
+        .expect("line 6 with a back pilot");
+    let (cand, _) = predict(&cfg, obstacle, 40.0, params).expect("predict");
+    (obstacle.terrain(), cfg, cand)
+}
+
 /// A line of six with its pilot at the back, 40° to a 30 mm gap whose far platform is 6 mm
 /// lower: a caster leaves the edge a few millimetres before the next contact reaches the far
 /// platform, and in between the line stands on nothing that holds it. The gate proves that
@@ -70,16 +86,7 @@ fn cross_planned(drop: f64) {
 #[test]
 fn a_line_that_would_tip_if_it_stopped_over_the_gap_crosses_at_speed() {
     let params = FleetParams::default();
-    let obstacle = Obstacle {
-        width: 0.03,
-        drop: 0.006,
-    };
-    let terrain = obstacle.terrain();
-    let cfg = configs(&[6], &params)
-        .into_iter()
-        .find(|c| c.shape == "line 6" && c.pilots == "back")
-        .expect("line 6 with a back pilot");
-    let (cand, _) = predict(&cfg, obstacle, 40.0, &params).expect("predict");
+    let (terrain, cfg, cand) = line_of_six_over_30_mm(&params);
     assert!(cand.crosses(), "{:?}", cand.advance);
     let stop = cand.advance.stop_limit();
     assert!(
@@ -138,16 +145,7 @@ fn a_link_lost_in_the_stretch_is_driven_through() {
     for p in [&mut params.pilot, &mut params.non_pilot] {
         p.firmware.failsafe_timeout_ms = 50;
     }
-    let obstacle = Obstacle {
-        width: 0.03,
-        drop: 0.006,
-    };
-    let terrain = obstacle.terrain();
-    let cfg = configs(&[6], &params)
-        .into_iter()
-        .find(|c| c.shape == "line 6" && c.pilots == "back")
-        .expect("line 6 with a back pilot");
-    let (cand, _) = predict(&cfg, obstacle, 40.0, &params).expect("predict");
+    let (terrain, cfg, cand) = line_of_six_over_30_mm(&params);
     let stretch = cand.advance.bridged[0];
     let formed_asm = set_down(&cfg, &params).expect("formed");
     let lose_link = |hold: bool| {
