@@ -25,8 +25,8 @@ pub struct CrossSettings {
     pub speed: f64,
     /// Advance between two gate checks of the measured poses (m): the planner's scan step.
     pub gate_every: f64,
-    /// Drive on past the planner's required advance (m): half a body, so the back robot
-    /// stands on the far platform and not on its edge.
+    /// Drive on past the planner's required advance (m): half a body, a margin for the
+    /// measured advance (an average over robots whose anchors slide) to pass it.
     pub overshoot: f64,
     /// Standing time before driving and after stopping (s): the assembly settles.
     pub settle_s: f64,
