@@ -45,7 +45,7 @@ pub struct Firmware {
     pub relink_after_ms: u16,
     /// Longest a [`puzzlebot_protocol::HostMsg::WheelSpeedHold`] keeps the wheels driving
     /// without a further command (ms): the bound on how far a robot drives blind, 1 s (45 mm
-    /// at the crossing speed, against bridged stretches of about 10 mm).
+    /// at the crossing speed; the bridged stretches measured are under 10 mm).
     pub max_hold_ms: u16,
 }
 

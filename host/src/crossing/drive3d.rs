@@ -343,21 +343,20 @@ pub fn cross(
     let travel = f64::from(params.non_pilot.coupling.anchor_travel);
     let anchors = held(w).iter().filter(|h| h.0 == LinkKind::Anchor).count();
     let slack = s.gate_every + 0.5 * travel * anchors as f64;
-    let at_speed = |d: f64| {
-        c.advance
-            .bridged
-            .iter()
-            .any(|b| d >= b[0] - slack && d <= b[1] + slack)
-    };
-    // Inside a widened stretch: how long the drive needs to leave it (ms, 0 outside).
-    let hold_ms = |d: f64| {
+    // The end of the widened stretch the advance `d` lies in, if any.
+    let stretch_end = |d: f64| {
         c.advance
             .bridged
             .iter()
             .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
-            .map(|b| ((b[1] + slack - d) / s.speed * 1e3).ceil())
-            .fold(0.0, f64::max)
-            .min(f64::from(u16::MAX)) as u16
+            .map(|b| b[1] + slack)
+            .reduce(f64::max)
+    };
+    // How long the drive needs to leave it (ms, 0 outside one).
+    let hold_ms = |d: f64| {
+        stretch_end(d).map_or(0, |end| {
+            ((end - d) / s.speed * 1e3).ceil().min(f64::from(u16::MAX)) as u16
+        })
     };
     let mut next_check = 0.0;
     let mut seen_events = w.events().len();
@@ -403,7 +402,7 @@ pub fn cross(
         if (failed && s.stop_on_failure) || d >= goal {
             break;
         }
-        if linked && s.live_gate && d >= next_check && !at_speed(d) {
+        if linked && s.live_gate && d >= next_check && stretch_end(d).is_none() {
             out.gate_checks += 1;
             if let Some(why) = gate_now(&st, &held(w), params, terrain, &opt, heading) {
                 out.gate_stop = Some((d, why));

@@ -139,6 +139,11 @@ impl Recorder {
                 HostMsg::WheelSpeed {
                     left_rpm,
                     right_rpm,
+                }
+                | HostMsg::WheelSpeedHold {
+                    left_rpm,
+                    right_rpm,
+                    ..
                 } => (f64::from(*left_rpm), f64::from(*right_rpm), false),
                 _ => (0.0, 0.0, true),
             };
