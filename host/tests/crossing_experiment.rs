@@ -47,3 +47,47 @@ fn a_sample_of_the_crossing_protocol() {
         assert_eq!(a.physics_fail, b.physics_fail);
     }
 }
+
+/// The gate judges each run from where it starts: moved along its heading towards the gap,
+/// the same assembly is proven exactly that much less far.
+#[test]
+fn a_run_is_judged_from_its_own_start() {
+    use puzzlebot_host::experiment::crossing::{
+        configs, judge_start, predict, run_scenario, set_down, Obstacle,
+    };
+    use puzzlebot_params::FleetParams;
+    let params = FleetParams::default();
+    let cfgs = configs(&[4], &params);
+    let cfg = cfgs
+        .iter()
+        .find(|c| c.shape == "mesh 2x2" && c.pilots == "front")
+        .expect("the 2 x 2 mesh with a front pilot");
+    let obstacle = Obstacle {
+        width: 0.04,
+        drop: 0.0,
+    };
+    let heading = 30.0f64;
+    let (cand, _) = predict(cfg, obstacle, heading, &params).expect("a plan");
+    let terrain = obstacle.terrain();
+    let formed = set_down(cfg, &params).expect("a shape");
+    // The planned start is judged as the planner judged it.
+    let planned = run_scenario(&formed, &cand, &terrain, &params, 1, 0);
+    let at_plan = judge_start(cfg, &cand, &planned, &terrain, &params).expect("gate");
+    assert_eq!(at_plan.distance, cand.advance.distance);
+    assert_eq!(at_plan.limited_by, cand.advance.limited_by);
+    // 2 mm further along the heading: the same limit, 2 mm sooner.
+    let mut moved = planned.clone();
+    let (s, c) = heading.to_radians().sin_cos();
+    for r in &mut moved.robots {
+        r.pose[0] += 0.002 * c;
+        r.pose[1] += 0.002 * s;
+    }
+    let nearer = judge_start(cfg, &cand, &moved, &terrain, &params).expect("gate");
+    assert_eq!(nearer.limited_by, cand.advance.limited_by);
+    assert!(
+        (nearer.distance - (cand.advance.distance - 0.002)).abs() < 1e-4,
+        "{} mm against {} mm planned",
+        nearer.distance * 1e3,
+        cand.advance.distance * 1e3
+    );
+}

@@ -2,14 +2,17 @@
 //! gate's side again with the gate as it is now, and the physics' static tipping point of
 //! the runs stored without one, keeping every driven run as it was.
 
-use super::crossing::{configs, predict, run_scenario, set_down, settings, CrossingData, Obstacle};
+use super::crossing::{
+    configs, judge_start, predict, run_scenario, set_down, settings, CrossingData, Obstacle,
+};
 use super::tip_point::{static_tip_point, TipSearch};
 use super::workers::map_parallel;
 use puzzlebot_params::FleetParams;
 
 /// Re-run the gate's side of stored runs (a `crossing.json` of an earlier run) with the gate
 /// as it is now, keeping the physics' results: the gate against physics without the
-/// simulation's minutes. `on_case` after each case. The error names what does not match.
+/// simulation's minutes. `on_case` after each gate evaluation ([`regate_steps`]). The error
+/// names what does not match.
 pub fn regate(
     d: &mut CrossingData,
     threads: usize,
@@ -45,7 +48,8 @@ pub fn regate(
         &|&(c, o, h)| predict(&cfgs[c], o, h, &params),
         on_case,
     );
-    for r in &mut d.runs {
+    let mut jittered = Vec::new();
+    for (i, r) in d.runs.iter_mut().enumerate() {
         let k = keys
             .iter()
             .position(|k| *k == (r.config, r.obstacle, r.heading_deg));
@@ -55,10 +59,35 @@ pub fn regate(
                 r.gate_limited_by = format!("{:?}", cand.advance.limited_by);
                 r.gate_stop_limit = Some(cand.advance.stop_limit());
                 r.rigid_advance = rigid.distance;
+                if r.run > 0 {
+                    jittered.push((i, cand.clone()));
+                }
             }
             Some(Err(e)) => return Err(e.clone()),
             None => return Err("a case was not evaluated".into()),
         }
+    }
+    // The jittered runs from their own starts, as the experiment judges them.
+    let data = &*d;
+    let judged = map_parallel(
+        &jittered,
+        threads,
+        &|(i, cand)| {
+            let r = &data.runs[*i];
+            let cfg = &data.configs[r.config];
+            let formed = set_down(cfg, &params)?;
+            let terrain = r.obstacle.terrain();
+            let s = run_scenario(&formed, cand, &terrain, &params, data.seed, r.run);
+            judge_start(cfg, cand, &s, &terrain, &params)
+        },
+        on_case,
+    );
+    for ((i, _), a) in jittered.iter().zip(judged) {
+        let a = a.map_err(|e| format!("runs[{i}]: {e}"))?;
+        let r = &mut d.runs[*i];
+        r.gate_advance = a.distance;
+        r.gate_limited_by = format!("{:?}", a.limited_by);
+        r.gate_stop_limit = Some(a.stop_limit());
     }
     Ok(())
 }
@@ -80,6 +109,12 @@ pub fn stored_cases(d: &CrossingData) -> usize {
     keys.sort_unstable();
     keys.dedup();
     keys.len()
+}
+
+/// Number of gate evaluations [`regate`] makes: one per stored case and one per jittered run
+/// (its progress bar's length).
+pub fn regate_steps(d: &CrossingData) -> usize {
+    stored_cases(d) + d.runs.iter().filter(|r| r.run > 0).count()
 }
 
 /// Stored runs that need the physics' static tipping point: first runs of meshes that

@@ -439,7 +439,8 @@ pub fn command(
             let mut d: CrossingData = serde_json::from_str(&text)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
             let n = super::crossing_regate::stored_cases(&d);
-            let pb = crate::app::Progress::new(n, "cases", progress);
+            let steps = super::crossing_regate::regate_steps(&d);
+            let pb = crate::app::Progress::new(steps, "gate evaluations", progress);
             let t0 = std::time::Instant::now();
             super::crossing_regate::regate(&mut d, opt.threads, &|| pb.inc())
                 .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;

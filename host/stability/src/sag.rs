@@ -23,7 +23,7 @@ use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotParams};
 
 mod articulated;
-pub use articulated::{resting_bodies, settle_articulated, Sag};
+pub use articulated::{resting_bodies, settle_articulated, wheels_bear, Sag};
 
 /// How the supports give and how high the bodies stand above them.
 #[derive(Debug, Clone, Copy, PartialEq)]

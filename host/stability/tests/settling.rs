@@ -172,3 +172,17 @@ fn a_hanging_robot_that_sags_past_the_fall_depth_has_fallen() {
     assert!(matches!(settled.limited_by, LimitedBy::Tips), "{settled:?}");
     assert!(settled.distance < rigid.distance, "{settled:?} {rigid:?}");
 }
+
+#[test]
+fn a_line_without_pilots_stalls_on_its_casters_down_a_step() {
+    // Two non-pilots at 30° down a 6 mm step: the front robot's wheels sit between its front
+    // caster on the lower platform and its rear caster on the upper one, and the robot behind
+    // pitches back onto its rear caster. No wheel bears, nothing drives: the 3-D physics stops
+    // there (crossing experiment). A front pilot's four wheels reach the lower platform.
+    let t = obstacle(0.0, 0.006);
+    let (_, _, required, settled, _) = crossing(Shape::Line(2), &[], &t, 30.0);
+    assert_eq!(settled.limited_by, LimitedBy::Stalls, "{settled:?}");
+    assert!(settled.distance < required, "{settled:?}");
+    let (_, _, _, piloted, _) = crossing(Shape::Line(2), &[0], &t, 30.0);
+    assert_ne!(piloted.limited_by, LimitedBy::Stalls, "{piloted:?}");
+}

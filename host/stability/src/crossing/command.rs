@@ -162,6 +162,7 @@ pub fn render(cands: &[Candidate]) -> String {
             LimitedBy::Tips => "tips".to_string(),
             LimitedBy::Connection { pairs } => format!("pairs {pairs:?}"),
             LimitedBy::StepUp { robot } => format!("step up r{robot}"),
+            LimitedBy::Stalls => "stalls".to_string(),
             LimitedBy::NotProven { .. } => "not proven".to_string(),
         };
         s.push_str(&format!(

@@ -10,7 +10,7 @@ use super::{
 use crate::events::{body_events, front_events, support_events};
 use crate::judge::{judge_model, judge_transfer};
 use crate::model::Assembly;
-use crate::sag::{droop, edge_stall, settle_articulated, Settling};
+use crate::sag::{droop, edge_stall, settle_articulated, wheels_bear, Settling};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 
@@ -138,6 +138,24 @@ pub fn max_safe_advance_with(
             droop(assembly, params, terrain, level, at(d), &m, &hanging, s)
                 .map(|_| LimitedBy::Tips),
         )
+    };
+    // No wheel bears on a platform in the assembly settled at advance `d`: the robots rest on
+    // their casters and nothing drives them on. Bodies resting on a platform
+    // ([`Settling::rest_on_bodies`]) drive nothing, so the assembly is settled without them.
+    let stalls = |d: f64| -> Result<bool, AdapterError> {
+        let Some(s) = opt.settling else {
+            return Ok(false);
+        };
+        let s = Settling {
+            rest_on_bodies: false,
+            ..s
+        };
+        let bare = AdvanceOptions {
+            settling: Some(s),
+            ..opt
+        };
+        let m = build_model_with(assembly, params, terrain, level, at(d), &bare)?;
+        Ok(wheels_bear(&m, &s) == Some(false))
     };
     // The connectors' peak as the support changes between the states at `lo` and `hi`.
     let transfer = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
@@ -339,6 +357,13 @@ pub fn max_safe_advance_with(
             return Ok(Advance {
                 distance: last,
                 limited_by: why,
+                bridged,
+            });
+        }
+        if stalls(d)? {
+            return Ok(Advance {
+                distance: last,
+                limited_by: LimitedBy::Stalls,
                 bridged,
             });
         }

@@ -81,6 +81,27 @@ pub fn settle_articulated(m: &Assembly, s: &Settling) -> Option<Sag> {
     settle_with(m, s, &|k| s.of(&m.contacts[k]))
 }
 
+/// Whether some wheel of the settled assembly `m` (a contact with friction; a caster has
+/// none) presses on its platform, so that its drive can push the assembly on: `false` when it
+/// rests on its casters alone. `None` when nothing carries it.
+pub fn wheels_bear(m: &Assembly, s: &Settling) -> Option<bool> {
+    /// A wheel bears once its settled sink passes its gap by this much (m): far above the
+    /// program's working precision, far below a tyre's sink under any load.
+    const PRESSED: f64 = 1e-6;
+    let sag = settle_articulated(m, s)?;
+    Some(
+        m.contacts
+            .iter()
+            .filter(|k| k.mu[0] > 0.0 || k.mu[1] > 0.0)
+            .any(|k| {
+                m.modules
+                    .iter()
+                    .position(|md| md.id == k.module)
+                    .is_some_and(|i| sag.sink(i, [k.point[0], k.point[1]]) > k.gap + PRESSED)
+            }),
+    )
+}
+
 /// Which of `bodies` (contacts of the robots' undersides, each `gap` clear of the platform
 /// below it) `m` comes to rest on: settled ([`settle_articulated`]) with them as one-sided
 /// springs of `s.caster_compliance` (a hard chassis on a platform, as stiff as a caster), the
