@@ -101,7 +101,10 @@ fn main() {
     let mut answers = String::from("gate advance by connector damping ratio:");
     for z in transfers {
         let opt = AdvanceOptions {
-            transfer: z.map(|damping_ratio| LoadTransfer { damping_ratio }),
+            transfer: z.map(|damping_ratio| LoadTransfer {
+                damping_ratio,
+                ..LoadTransfer::default()
+            }),
             ..aopt
         };
         let adv = max_safe_advance_with(&planned, &params, &terrain, h, 0.005, opt).expect("gate");

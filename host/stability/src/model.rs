@@ -43,8 +43,11 @@ pub struct Assembly {
     pub objective: Objective,
 }
 
+/// Standard gravity (m/s²): the default of [`Assembly::gravity`].
+pub const GRAVITY: f64 = 9.81;
+
 fn default_gravity() -> Vec3 {
-    [0.0, 0.0, -9.81]
+    [0.0, 0.0, -GRAVITY]
 }
 
 /// One rigid module.

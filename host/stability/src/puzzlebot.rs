@@ -463,7 +463,7 @@ pub fn build_model_with(
         });
     }
     let mut m = Assembly {
-        gravity: [0.0, 0.0, -9.81],
+        gravity: [0.0, 0.0, -crate::model::GRAVITY],
         modules,
         connectors,
         connections,

@@ -10,7 +10,7 @@
 //! limits of [`SOFT_SUPPORTS`] ([`transfer_limit`]).
 
 use crate::elastic::{distribution_with_supports, use_of_limits, Compliance};
-use crate::model::{Assembly, Resolved};
+use crate::model::{Assembly, Resolved, GRAVITY};
 use crate::puzzlebot::{AdapterError, LimitedBy};
 use crate::sag::Settling;
 use crate::socp::SLOTS;
@@ -28,15 +28,39 @@ pub struct LoadTransfer {
     /// is not measured (THESIS gives none), so the default is 0: the bound of an undamped
     /// spring, which any damping only lowers.
     pub damping_ratio: f64,
+    /// Advance over which a contact rolling off an edge hands its load to the connectors (m):
+    /// it sinks by their deflection under a robot's weight, δ = m·g / k, over √(2·r·δ) for
+    /// its rolling radius r. Support events closer together than this shed their loads
+    /// together and are checked as one change as well. [`LoadTransfer::of`] takes the
+    /// largest wheel and the heaviest robot of the fleet.
+    pub overlap: f64,
 }
 
 impl Default for LoadTransfer {
     fn default() -> Self {
-        LoadTransfer { damping_ratio: 0.0 }
+        LoadTransfer::of(&FleetParams::default())
     }
 }
 
 impl LoadTransfer {
+    /// The undamped bound for robots `params`: [`LoadTransfer::overlap`] of their largest
+    /// wheel and heaviest robot.
+    pub fn of(params: &FleetParams) -> LoadTransfer {
+        let robots = [&params.pilot, &params.non_pilot];
+        let r = robots
+            .iter()
+            .map(|p| f64::from(p.geometry.wheel_radius.max(p.plant.caster_radius)))
+            .fold(0.0, f64::max);
+        let sink = robots
+            .iter()
+            .map(|p| f64::from(p.mass.mass) * GRAVITY / f64::from(p.coupling.connector_stiffness))
+            .fold(0.0, f64::max);
+        LoadTransfer {
+            damping_ratio: 0.0,
+            overlap: (2.0 * r * sink).sqrt(),
+        }
+    }
+
     /// Peak of a step response over its settled change (1): 1 + exp(−ζπ / √(1 − ζ²)) below
     /// critical damping, 1 from there on.
     pub fn amplification(&self) -> f64 {
@@ -198,8 +222,22 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_wheel_sheds_its_load_over_about_two_millimetres() {
+        // √(2 · 17 mm · 0.1097 kg · 9.81 m/s² / 10⁴ N/m) = 1.91 mm.
+        let t = LoadTransfer::default();
+        assert!((t.overlap - 1.91e-3).abs() < 0.01e-3, "{}", t.overlap);
+        assert_eq!(t.damping_ratio, 0.0);
+    }
+
+    #[test]
     fn amplification_falls_from_two_to_one_with_damping() {
-        let a = |z: f64| LoadTransfer { damping_ratio: z }.amplification();
+        let a = |z: f64| {
+            LoadTransfer {
+                damping_ratio: z,
+                ..LoadTransfer::default()
+            }
+            .amplification()
+        };
         assert_eq!(a(0.0), 2.0);
         assert_eq!(a(1.0), 1.0);
         assert_eq!(a(2.0), 1.0);

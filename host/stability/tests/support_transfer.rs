@@ -88,8 +88,14 @@ fn a_support_lost_loads_the_knob_up_to_twice_the_change() {
     let at =
         |d: f64| build_model_with(&a, &p, &t, level, [d * h.cos(), d * h.sin()], &aopt).unwrap();
     let (before, after) = (at(event - EVENT_EPS), at(event + EVENT_EPS));
-    let undamped = LoadTransfer { damping_ratio: 0.0 };
-    let critical = LoadTransfer { damping_ratio: 1.0 };
+    let undamped = LoadTransfer {
+        damping_ratio: 0.0,
+        ..LoadTransfer::default()
+    };
+    let critical = LoadTransfer {
+        damping_ratio: 1.0,
+        ..LoadTransfer::default()
+    };
     match transfer_limit(&before, &after, &p, undamped).unwrap() {
         Some(LimitedBy::Connection { pairs }) => assert!(pairs.contains(&KNOB_2_5), "{pairs:?}"),
         other => panic!("undamped: {other:?}"),

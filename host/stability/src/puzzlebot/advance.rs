@@ -157,14 +157,37 @@ pub fn max_safe_advance_with(
         let m = build_model_with(assembly, params, terrain, level, at(d), &bare)?;
         Ok(wheels_bear(&m, &s) == Some(false))
     };
-    // The connectors' peak as the support changes between the states at `lo` and `hi`.
+    // Where the contacts leave or reach a platform, in order.
+    let mut events = support_events(assembly, params, terrain, heading, opt.horizon);
+    if resting {
+        events.extend(body_events(assembly, params, terrain, heading, opt.horizon));
+    }
+    events.sort_by(f64::total_cmp);
+    // The connectors' peak as the support changes between the states at `lo` and `hi`, and
+    // from `lo` on past every later event within the transfer's overlap of the one before
+    // ([`crate::transfer::LoadTransfer::overlap`]): contacts rolling off edges a fraction
+    // of a millimetre apart (an assembly a degree off square to the edge) shed their loads
+    // together.
     let transfer = |lo: f64, hi: f64| -> Result<Option<LimitedBy>, AdapterError> {
-        if opt.transfer.is_none() {
+        let Some(t) = opt.transfer else {
             return Ok(None);
-        }
+        };
         let before = build_model_with(assembly, params, terrain, level, at(lo), &opt)?;
-        let after = build_model_with(assembly, params, terrain, level, at(hi), &opt)?;
-        judge_transfer(&before, &after, params, &opt, heading)
+        let mut to = hi;
+        loop {
+            let after = build_model_with(assembly, params, terrain, level, at(to), &opt)?;
+            if let Some(why) = judge_transfer(&before, &after, params, &opt, heading)? {
+                return Ok(Some(why));
+            }
+            let next = events
+                .iter()
+                .map(|&e| e + EVENT_EPS)
+                .find(|&e| e > to + EVENT_EPS && e <= to + t.overlap && e < opt.horizon);
+            match next {
+                Some(e) => to = e,
+                None => return Ok(None),
+            }
+        }
     };
     let mut cur = topology(0.0);
     if let Some(why) = judge(0.0, &cur.0)? {
@@ -176,12 +199,8 @@ pub fn max_safe_advance_with(
     }
     // Just after every support event, and every `step` (a change found there is located by
     // bisection to 1 µm).
-    let mut events = support_events(assembly, params, terrain, heading, opt.horizon);
-    if resting {
-        events.extend(body_events(assembly, params, terrain, heading, opt.horizon));
-    }
     let mut checks: Vec<(f64, bool)> = events
-        .into_iter()
+        .iter()
         .map(|e| (e + EVENT_EPS, true))
         .filter(|&(d, _)| d < opt.horizon)
         .collect();
