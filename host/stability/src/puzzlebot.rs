@@ -184,8 +184,8 @@ pub enum LimitedBy {
         /// Robot index.
         robot: usize,
     },
-    /// No wheel presses on a platform in the settled assembly: it rests on its casters and
-    /// its drive cannot push it on.
+    /// No wheel touches a platform in the settled assembly: it rests on its casters and its
+    /// drive cannot push it on.
     Stalls,
     /// The solver reached no certificate: stop (never assume stable).
     NotProven {

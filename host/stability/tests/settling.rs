@@ -185,4 +185,13 @@ fn a_line_without_pilots_stalls_on_its_casters_down_a_step() {
     assert!(settled.distance < required, "{settled:?}");
     let (_, _, _, piloted, _) = crossing(Shape::Line(2), &[0], &t, 30.0);
     assert_ne!(piloted.limited_by, LimitedBy::Stalls, "{piloted:?}");
+    // A 2 × 2 mesh with a back pilot over a 30 mm gap 6 mm down at 20°: where its front
+    // robots reach the far platform it pitches onto their casters, one of the pilot's wheels
+    // just touching. The physics drives it across.
+    let mesh = Shape::Mesh {
+        rows: 2,
+        per_row: 2,
+    };
+    let (_, _, required, pitched, _) = crossing(mesh, &[1], &obstacle(0.03, 0.006), 20.0);
+    assert!(pitched.distance >= required, "{pitched:?}");
 }

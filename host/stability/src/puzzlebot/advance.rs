@@ -139,7 +139,7 @@ pub fn max_safe_advance_with(
                 .map(|_| LimitedBy::Tips),
         )
     };
-    // No wheel bears on a platform in the assembly settled at advance `d`: the robots rest on
+    // No wheel touches a platform in the assembly settled at advance `d`: the robots rest on
     // their casters and nothing drives them on. Bodies resting on a platform
     // ([`Settling::rest_on_bodies`]) drive nothing, so the assembly is settled without them.
     let stalls = |d: f64| -> Result<bool, AdapterError> {
@@ -164,7 +164,7 @@ pub fn max_safe_advance_with(
     }
     events.sort_by(f64::total_cmp);
     // The connectors' peak as the support changes between the states at `lo` and `hi`, and
-    // from `lo` on past every later event within the transfer's overlap of the one before
+    // from `lo` on past every later event within the transfer's overlap of `hi`
     // ([`crate::transfer::LoadTransfer::overlap`]): contacts rolling off edges a fraction
     // of a millimetre apart (an assembly a degree off square to the edge) shed their loads
     // together.
@@ -182,7 +182,7 @@ pub fn max_safe_advance_with(
             let next = events
                 .iter()
                 .map(|&e| e + EVENT_EPS)
-                .find(|&e| e > to + EVENT_EPS && e <= to + t.overlap && e < opt.horizon);
+                .find(|&e| e > to + EVENT_EPS && e <= hi + t.overlap && e < opt.horizon);
             match next {
                 Some(e) => to = e,
                 None => return Ok(None),

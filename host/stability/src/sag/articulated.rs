@@ -82,12 +82,14 @@ pub fn settle_articulated(m: &Assembly, s: &Settling) -> Option<Sag> {
 }
 
 /// Whether some wheel of the settled assembly `m` (a contact with friction; a caster has
-/// none) presses on its platform, so that its drive can push the assembly on: `false` when it
-/// rests on its casters alone. `None` when nothing carries it.
+/// none) touches its platform, so that its drive can push the assembly on: `false` when every
+/// wheel stands clear and the assembly rests on its casters alone. A wheel just touching,
+/// with no load in the settled state, counts: the small-motion settling cannot tell how the
+/// drive's push shares the load out there. `None` when nothing carries it.
 pub fn wheels_bear(m: &Assembly, s: &Settling) -> Option<bool> {
-    /// A wheel bears once its settled sink passes its gap by this much (m): far above the
-    /// program's working precision, far below a tyre's sink under any load.
-    const PRESSED: f64 = 1e-6;
+    /// A wheel touches when its settled sink reaches its gap to within this (m): the
+    /// program's working precision (it solves in millimetres).
+    const TOUCHING: f64 = 1e-6;
     let sag = settle_articulated(m, s)?;
     Some(
         m.contacts
@@ -97,7 +99,7 @@ pub fn wheels_bear(m: &Assembly, s: &Settling) -> Option<bool> {
                 m.modules
                     .iter()
                     .position(|md| md.id == k.module)
-                    .is_some_and(|i| sag.sink(i, [k.point[0], k.point[1]]) > k.gap + PRESSED)
+                    .is_some_and(|i| sag.sink(i, [k.point[0], k.point[1]]) > k.gap - TOUCHING)
             }),
     )
 }
