@@ -1,7 +1,7 @@
 //! Terrain files and the planner's command line: its arguments, its run and its table.
 
 use super::{plan, Candidate, CrossingOptions, PlanError};
-use crate::puzzlebot::LimitedBy;
+use crate::puzzlebot::{LimitedBy, LoadTransfer};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::FleetParams;
 
@@ -58,6 +58,11 @@ pub struct CrossingArgs {
     /// advance must stand) in `puzzlebot-gate crossing`).
     #[arg(long)]
     pub speed: Option<f64>,
+    /// Damping ratio of the connectors' load response (1): how far they overshoot when a
+    /// support rolls off an edge. The default 0 is the undamped bound, twice the change; set
+    /// it only from a measurement of your couplings (the decay of one ringing coupling).
+    #[arg(long, default_value_t = 0.0)]
+    pub connector_damping: f64,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -74,13 +79,14 @@ impl CrossingArgs {
             Drive {
                 accel: self.drive_accel.unwrap_or(0.0),
                 speed: self.speed.unwrap_or(0.0),
+                connector_damping: self.connector_damping,
             },
             self.json,
         )
     }
 }
 
-/// The crossing drive a plan's proof covers.
+/// The crossing drive a plan's proof covers, and how the couplings respond to it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Drive {
     /// Acceleration starting and braking (m/s², [`CrossingOptions::drive_accel`]).
@@ -88,6 +94,9 @@ pub struct Drive {
     /// Speed held through stretches where stopping would tip the assembly (m/s,
     /// [`CrossingOptions::bridge_speed`]).
     pub speed: f64,
+    /// Damping ratio of the connectors' load response (1,
+    /// [`crate::transfer::LoadTransfer::damping_ratio`]).
+    pub connector_damping: f64,
 }
 
 /// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
@@ -100,17 +109,26 @@ pub fn crossing_command(
     drive: Drive,
     json: bool,
 ) -> Result<String, PlanError> {
-    for (name, v) in [("--drive-accel", drive.accel), ("--speed", drive.speed)] {
+    for (name, v) in [
+        ("--drive-accel", drive.accel),
+        ("--speed", drive.speed),
+        ("--connector-damping", drive.connector_damping),
+    ] {
         if !(v.is_finite() && v >= 0.0) {
             return Err(PlanError::Input(format!("{name}: must be ≥ 0, got {v}")));
         }
     }
     let t = load_terrain(terrain)?;
+    let defaults = CrossingOptions::default();
     let opt = CrossingOptions {
         start_y,
         drive_accel: drive.accel,
         bridge_speed: drive.speed,
-        ..CrossingOptions::default()
+        transfer: LoadTransfer {
+            damping_ratio: drive.connector_damping,
+            ..defaults.transfer
+        },
+        ..defaults
     };
     let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
     Ok(if json {
