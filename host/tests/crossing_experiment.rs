@@ -1,11 +1,20 @@
 //! `puzzlebot experiment crossing` on a small sample: what one robot cannot cross a mesh
 //! can, a pilot crosses wider than a non-pilot, the summary finds those widths, the gate
 //! never calls safe an advance at which the physics failed, and re-running the gate's side of
-//! the stored runs gives the same predictions.
+//! the stored runs gives the same predictions; a run is judged from its own start.
 
-use puzzlebot_host::experiment::crossing::{run, CrossingData, Options};
+use puzzlebot_host::experiment::crossing::{
+    configs, judge_start, predict, run, run_scenario, set_down, Config, CrossingData, Obstacle,
+    Options,
+};
 use puzzlebot_host::experiment::crossing_regate::regate;
 use puzzlebot_host::experiment::crossing_report::{render, summarise};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::FleetParams;
+use puzzlebot_sim::Scenario;
+use puzzlebot_stability::crossing::Candidate;
+use puzzlebot_stability::puzzlebot::Advance;
+use puzzlebot_stability::LimitedBy;
 
 #[test]
 fn a_sample_of_the_crossing_protocol() {
@@ -48,47 +57,67 @@ fn a_sample_of_the_crossing_protocol() {
     }
 }
 
+/// One case of the protocol over a level gap as the experiment sets it down: its
+/// configuration, the planner's candidate, the terrain and the scenario of the planned start.
+struct Planned {
+    params: FleetParams,
+    cfg: Config,
+    cand: Candidate,
+    terrain: Terrain,
+    start: Scenario,
+}
+
+fn planned(robots: usize, shape: &str, pilots: &str, width: f64, heading: f64) -> Planned {
+    let params = FleetParams::default();
+    let cfg = configs(&[robots], &params)
+        .into_iter()
+        .find(|c| c.shape == shape && c.pilots == pilots)
+        .expect("the configuration");
+    let obstacle = Obstacle { width, drop: 0.0 };
+    let (cand, _) = predict(&cfg, obstacle, heading, &params).expect("a plan");
+    let terrain = obstacle.terrain();
+    let formed = set_down(&cfg, &params).expect("a shape");
+    let start = run_scenario(&formed, &cand, &terrain, &params, 1, 0);
+    Planned {
+        params,
+        cfg,
+        cand,
+        terrain,
+        start,
+    }
+}
+
+impl Planned {
+    /// The gate's proven advance from the start of `s`.
+    fn judge(&self, s: &Scenario) -> Advance {
+        judge_start(&self.cfg, &self.cand, s, &self.terrain, &self.params).expect("gate")
+    }
+}
+
 /// The gate judges each run from where it starts: moved along its heading towards the gap,
 /// the same assembly is proven exactly that much less far.
 #[test]
 fn a_run_is_judged_from_its_own_start() {
-    use puzzlebot_host::experiment::crossing::{
-        configs, judge_start, predict, run_scenario, set_down, Obstacle,
-    };
-    use puzzlebot_params::FleetParams;
-    let params = FleetParams::default();
-    let cfgs = configs(&[4], &params);
-    let cfg = cfgs
-        .iter()
-        .find(|c| c.shape == "mesh 2x2" && c.pilots == "front")
-        .expect("the 2 x 2 mesh with a front pilot");
-    let obstacle = Obstacle {
-        width: 0.04,
-        drop: 0.0,
-    };
     let heading = 30.0f64;
-    let (cand, _) = predict(cfg, obstacle, heading, &params).expect("a plan");
-    let terrain = obstacle.terrain();
-    let formed = set_down(cfg, &params).expect("a shape");
+    let p = planned(4, "mesh 2x2", "front", 0.04, heading);
     // The planned start is judged as the planner judged it.
-    let planned = run_scenario(&formed, &cand, &terrain, &params, 1, 0);
-    let at_plan = judge_start(cfg, &cand, &planned, &terrain, &params).expect("gate");
-    assert_eq!(at_plan.distance, cand.advance.distance);
-    assert_eq!(at_plan.limited_by, cand.advance.limited_by);
+    let at_plan = p.judge(&p.start);
+    assert_eq!(at_plan.distance, p.cand.advance.distance);
+    assert_eq!(at_plan.limited_by, p.cand.advance.limited_by);
     // 2 mm further along the heading: the same limit, 2 mm sooner.
-    let mut moved = planned.clone();
+    let mut moved = p.start.clone();
     let (s, c) = heading.to_radians().sin_cos();
     for r in &mut moved.robots {
         r.pose[0] += 0.002 * c;
         r.pose[1] += 0.002 * s;
     }
-    let nearer = judge_start(cfg, &cand, &moved, &terrain, &params).expect("gate");
-    assert_eq!(nearer.limited_by, cand.advance.limited_by);
+    let nearer = p.judge(&moved);
+    assert_eq!(nearer.limited_by, p.cand.advance.limited_by);
     assert!(
-        (nearer.distance - (cand.advance.distance - 0.002)).abs() < 1e-4,
+        (nearer.distance - (p.cand.advance.distance - 0.002)).abs() < 1e-4,
         "{} mm against {} mm planned",
         nearer.distance * 1e3,
-        cand.advance.distance * 1e3
+        p.cand.advance.distance * 1e3
     );
 }
 
@@ -99,49 +128,24 @@ fn a_run_is_judged_from_its_own_start() {
 /// where the 3-D physics breaks a knob at 76–78 mm in every run of this case.
 #[test]
 fn a_start_slightly_off_square_sheds_its_front_row_as_one() {
-    use puzzlebot_host::experiment::crossing::{
-        configs, judge_start, predict, run_scenario, set_down, Obstacle,
-    };
-    use puzzlebot_params::FleetParams;
-    let params = FleetParams::default();
-    let cfgs = configs(&[6], &params);
-    let cfg = cfgs
-        .iter()
-        .find(|c| c.shape == "mesh 2x3" && c.pilots == "none")
-        .expect("the 2 x 3 mesh without pilots");
-    let obstacle = Obstacle {
-        width: 0.08,
-        drop: 0.0,
-    };
-    let (cand, _) = predict(cfg, obstacle, 0.0, &params).expect("a plan");
-    let terrain = obstacle.terrain();
-    let formed = set_down(cfg, &params).expect("a shape");
-    let square = judge_start(
-        cfg,
-        &cand,
-        &run_scenario(&formed, &cand, &terrain, &params, 1, 0),
-        &terrain,
-        &params,
-    )
-    .expect("gate");
+    let p = planned(6, "mesh 2x3", "none", 0.08, 0.0);
+    let square = p.judge(&p.start);
     // Turned 0.15° about the front robot, as the experiment's start jitter does.
-    let mut turned = run_scenario(&formed, &cand, &terrain, &params, 1, 0);
+    let yaw = -0.15f64.to_radians();
+    let mut turned = p.start.clone();
     let front = turned.robots[0].pose;
-    let (s, c) = (-0.15f64).to_radians().sin_cos();
+    let (s, c) = yaw.sin_cos();
     for r in &mut turned.robots {
         let (x, y) = (r.pose[0] - front[0], r.pose[1] - front[1]);
         r.pose = [
             front[0] + c * x - s * y,
             front[1] + s * x + c * y,
-            r.pose[2] - 0.15f64.to_radians(),
+            r.pose[2] + yaw,
         ];
     }
-    let off = judge_start(cfg, &cand, &turned, &terrain, &params).expect("gate");
+    let off = p.judge(&turned);
     assert!(
-        matches!(
-            square.limited_by,
-            puzzlebot_stability::LimitedBy::Connection { .. }
-        ),
+        matches!(square.limited_by, LimitedBy::Connection { .. }),
         "{square:?}"
     );
     assert_eq!(off.limited_by, square.limited_by, "{off:?}");
