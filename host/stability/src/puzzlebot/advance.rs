@@ -1,5 +1,6 @@
 //! The gate's scan along a crossing: how far a PuzzleBot assembly can advance before it tips,
-//! a connection fails, or a hanging robot stalls against an edge or sags into a gap.
+//! a connection fails, a hanging robot stalls against an edge or sags into a gap, or no wheel
+//! is left on a platform to drive it.
 
 use super::bridge::{tip_of, Tip, MAX_TIP_ANGLE};
 use super::{
