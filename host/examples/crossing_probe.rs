@@ -9,11 +9,14 @@
 //! drive there and traces the assembly standing for a second; `TRACE_US=n` traces every n µs (default
 //! 10 000) from the advance `FROM=mm` on (default 0); `SPEED=f` drives at f times the
 //! crossing speed; `START_AT=mm` sets the assembly down that far along the crossing;
-//! `CONTACT_HZ=f` sets the engine's contact frequency; `SOFT=wheels` or `SOFT=casters` takes
+//! `CONTACT_HZ=f` sets the engine's contact frequency; `RUN=k` sets the assembly down as run k
+//! of the experiment's case, with its start jitter; `SOFT=wheels` or `SOFT=casters` takes
 //! only those supports soft in the gate's distribution.
 
 use puzzlebot_host::crossing::drive3d;
-use puzzlebot_host::experiment::crossing::{configs, predict, set_down, settings, Obstacle};
+use puzzlebot_host::experiment::crossing::{
+    configs, predict, run_scenario, set_down, settings, Obstacle, Options,
+};
 use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::World3d;
 use puzzlebot_stability::crossing::formed;
@@ -72,7 +75,18 @@ fn main() {
         cand.start[0] + start_at * hd.cos(),
         cand.start[1] + start_at * hd.sin(),
     ];
-    let s = drive3d::scenario(&formed_asm, &placed, &terrain, &params, 1);
+    // `RUN=k` sets it down as run k of the experiment's case (seeded start jitter from 1 on).
+    let s = match std::env::var("RUN").ok().and_then(|v| v.parse::<usize>().ok()) {
+        Some(run) => run_scenario(
+            &formed_asm,
+            &placed,
+            &terrain,
+            &params,
+            Options::full().seed,
+            run,
+        ),
+        None => drive3d::scenario(&formed_asm, &placed, &terrain, &params, 1),
+    };
     let mut w = World3d::new(&s, settings.world).expect("world");
     w.run_for((settings.settle_s * 1e6) as u64);
     let h = heading.to_radians();
