@@ -76,7 +76,10 @@ fn main() {
         cand.start[1] + start_at * hd.sin(),
     ];
     // `RUN=k` sets it down as run k of the experiment's case (seeded start jitter from 1 on).
-    let s = match std::env::var("RUN").ok().and_then(|v| v.parse::<usize>().ok()) {
+    let s = match std::env::var("RUN")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+    {
         Some(run) => run_scenario(
             &formed_asm,
             &placed,
