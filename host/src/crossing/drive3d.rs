@@ -43,8 +43,26 @@ pub struct CrossSettings {
     /// Fault injection: the advance (m) at which the host's commands stop reaching the
     /// robots, which then only the firmware's failsafe stops; `None`: the link holds.
     pub link_loss_at: Option<f64>,
+    /// Heading feedback of every non-pilot (1/s): each turns at this rate times its measured
+    /// heading's error from the plan's. A line is free to yaw at its anchors, and pushed from
+    /// behind with equal wheel speeds it snakes and folds back on itself; steered, it stays
+    /// straight. [`heading_gain`]; 0: equal wheel speeds. Pilots drive straight only (THESIS
+    /// 5.4.1).
+    pub heading_gain: f64,
     /// The 3-D world's settings.
     pub world: Config3d,
+}
+
+/// Heading feedback gain of the crossing drive (1/s): the outer heading loop a tenth as fast
+/// as the firmware's wheel-speed reference, 1 / (10 · reference_tau), so that the two loops
+/// do not interact.
+pub fn heading_gain(params: &FleetParams) -> f64 {
+    let tau = 1e-3 * f64::from(params.non_pilot.firmware.reference_tau_ms);
+    if tau > 0.0 {
+        1.0 / (10.0 * tau)
+    } else {
+        0.0
+    }
 }
 
 /// Driving speed at which a crossing stays close to the gate's quasi-static picture (m/s).
@@ -113,8 +131,22 @@ impl Default for CrossSettings {
             stop_on_failure: true,
             hold_through_stretches: true,
             link_loss_at: None,
+            heading_gain: heading_gain(&FleetParams::default()),
             world: Config3d::default(),
         }
+    }
+}
+
+/// Command every non-pilot of `st` to drive at the crossing speed, turning at
+/// `s.heading_gain` times its heading's error from `heading` (rad); pilots keep equal wheel
+/// speeds.
+fn steer(w: &mut World3d, st: &[RobotState3d], heading: f64, s: &CrossSettings, p: &FleetParams) {
+    let half_base = 0.5 * f64::from(p.non_pilot.geometry.wheel_base);
+    for r in st.iter().filter(|r| r.kind != RobotKind::Pilot) {
+        let e = heading - r.rpy[2];
+        let turn = s.heading_gain * e.sin().atan2(e.cos());
+        let [l, rr] = [s.speed - turn * half_base, s.speed + turn * half_base];
+        w.command(r.id, Some([rpm_for(l, p), rpm_for(rr, p)]));
     }
 }
 
@@ -381,6 +413,9 @@ pub fn cross(
             linked = false;
             lost_us = w.time_us();
             w.command_all(None);
+        }
+        if linked && s.heading_gain > 0.0 {
+            steer(w, &st, heading, s, params);
         }
         if linked && s.hold_through_stretches {
             // Looking one host period ahead: the hold must already run when the link fails.
