@@ -53,6 +53,15 @@ pub struct Coupling {
     pub connector_stiffness: f32,
     /// Stiffness of a coupled connector's held rotations (N·m/rad): 0.09 N·m turns it 9 mrad.
     pub connector_angular_stiffness: f32,
+    /// Damping ratio ζ of a coupled connector's springs (1): the printed TPU's loss factor
+    /// over two, ζ = tan δ / 2. THESIS prints the bodies with their knobs and the anchors in
+    /// NinjaFlex Cheetah (TPU 95A, 2.3.2, 4.2.2) without measuring its damping; a 95A TPU's
+    /// tan δ at room temperature and 1–100 Hz lies at about 0.05–0.15 (dynamic mechanical
+    /// analysis), so the default takes the low end, 0.025. The stability gate bounds a
+    /// connector's overshoot when a support rolls off an edge with it; a lab that measures
+    /// its couplings (the decay of one ringing coupling) sets its own, 0 for the undamped
+    /// bound.
+    pub connector_damping_ratio: f32,
 }
 
 impl Default for Coupling {
@@ -74,6 +83,7 @@ impl Default for Coupling {
             robot_push_force: 0.5,
             connector_stiffness: 1.0e4,
             connector_angular_stiffness: 10.0,
+            connector_damping_ratio: 0.025,
         }
     }
 }

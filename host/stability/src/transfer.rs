@@ -24,9 +24,9 @@ pub const SOFT_SUPPORTS: f64 = 1e3;
 /// How the connectors respond to a sudden change of the support.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoadTransfer {
-    /// Damping ratio ζ of a connector's load response (1). The printed connectors' damping
-    /// is not measured (THESIS gives none), so the default is 0: the bound of an undamped
-    /// spring, which any damping only lowers.
+    /// Damping ratio ζ of a connector's load response (1): `coupling.connector_damping_ratio`
+    /// of the robots (the printed TPU's, not measured on the robots; 0: the bound of an
+    /// undamped spring, which any damping only lowers). Negative or not a number counts as 0.
     pub damping_ratio: f64,
     /// Advance over which a contact rolling off an edge hands its load to the connectors (m):
     /// it sinks by their deflection under a robot's weight, δ = m·g / k, over √(2·r·δ) for
@@ -43,8 +43,8 @@ impl Default for LoadTransfer {
 }
 
 impl LoadTransfer {
-    /// The undamped bound for robots `params`: [`LoadTransfer::overlap`] of their largest
-    /// wheel and heaviest robot.
+    /// The bound for robots `params`: the least damped of their connectors, and
+    /// [`LoadTransfer::overlap`] of their largest wheel and heaviest robot.
     pub fn of(params: &FleetParams) -> LoadTransfer {
         let robots = [&params.pilot, &params.non_pilot];
         let r = robots
@@ -55,17 +55,23 @@ impl LoadTransfer {
             .iter()
             .map(|p| f64::from(p.mass.mass) * GRAVITY / f64::from(p.coupling.connector_stiffness))
             .fold(0.0, f64::max);
+        let damping_ratio = robots
+            .iter()
+            .map(|p| f64::from(p.coupling.connector_damping_ratio))
+            .fold(f64::INFINITY, f64::min);
         LoadTransfer {
-            damping_ratio: 0.0,
+            damping_ratio,
             overlap: (2.0 * r * sink).sqrt(),
         }
     }
 
     /// Peak of a step response over its settled change (1): 1 + exp(−ζπ / √(1 − ζ²)) below
-    /// critical damping, 1 from there on.
+    /// critical damping, 1 from there on; 2 for a ratio that is negative or not a number.
     pub fn amplification(&self) -> f64 {
         let z = self.damping_ratio;
-        if z >= 1.0 {
+        if !(z > 0.0) {
+            2.0
+        } else if z >= 1.0 {
             1.0
         } else {
             1.0 + (-z * std::f64::consts::PI / (1.0 - z * z).sqrt()).exp()
@@ -226,7 +232,16 @@ mod tests {
         // √(2 · 17 mm · 0.1097 kg · 9.81 m/s² / 10⁴ N/m) = 1.91 mm.
         let t = LoadTransfer::default();
         assert!((t.overlap - 1.91e-3).abs() < 0.01e-3, "{}", t.overlap);
-        assert_eq!(t.damping_ratio, 0.0);
+    }
+
+    #[test]
+    fn the_least_damped_robot_sets_the_bound() {
+        let mut params = FleetParams::default();
+        assert_eq!(LoadTransfer::of(&params).damping_ratio, 0.025f32 as f64);
+        params.pilot.coupling.connector_damping_ratio = 0.01;
+        assert_eq!(LoadTransfer::of(&params).damping_ratio, 0.01f32 as f64);
+        params.non_pilot.coupling.connector_damping_ratio = 0.0;
+        assert_eq!(LoadTransfer::of(&params).amplification(), 2.0);
     }
 
     #[test]
@@ -241,6 +256,8 @@ mod tests {
         assert_eq!(a(0.0), 2.0);
         assert_eq!(a(1.0), 1.0);
         assert_eq!(a(2.0), 1.0);
+        assert_eq!(a(-0.5), 2.0);
+        assert_eq!(a(f64::NAN), 2.0);
         // ζ = 0.5: overshoot exp(−π/√3) ≈ 0.163.
         assert!((a(0.5) - 1.163).abs() < 1e-3, "{}", a(0.5));
         assert!(a(0.1) > a(0.2) && a(0.2) > a(0.5));

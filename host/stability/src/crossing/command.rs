@@ -59,10 +59,12 @@ pub struct CrossingArgs {
     #[arg(long)]
     pub speed: Option<f64>,
     /// Damping ratio of the connectors' load response (1): how far they overshoot when a
-    /// support rolls off an edge. The default 0 is the undamped bound, twice the change; set
-    /// it only from a measurement of your couplings (the decay of one ringing coupling).
-    #[arg(long, default_value_t = 0.0)]
-    pub connector_damping: f64,
+    /// support rolls off an edge (default: the parameter set's
+    /// `coupling.connector_damping_ratio`, printed TPU's 0.025; 0: the undamped bound, twice
+    /// the change). Set it from a measurement of your couplings (the decay of one ringing
+    /// coupling).
+    #[arg(long)]
+    pub connector_damping: Option<f64>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -79,7 +81,9 @@ impl CrossingArgs {
             Drive {
                 accel: self.drive_accel.unwrap_or(0.0),
                 speed: self.speed.unwrap_or(0.0),
-                connector_damping: self.connector_damping,
+                connector_damping: self
+                    .connector_damping
+                    .unwrap_or_else(|| LoadTransfer::default().damping_ratio),
             },
             self.json,
         )
