@@ -121,10 +121,20 @@ fn a_block_slides_once_the_slope_passes_the_friction_angle() {
 #[test]
 fn a_lone_non_pilot_falls_into_a_40_mm_gap() {
     let s = lone(RobotKind::NonPilot, -0.08, gap_terrain(0.04, 0.0, 0.0));
-    let mut w = World3d::new(&s, Config3d::default()).unwrap();
+    let cfg = Config3d::default();
+    let mut w = World3d::new(&s, cfg).unwrap();
+    // Standing, its underside is the chassis clearance above the platform (the wheels and
+    // casters sink a little into the engine's soft contacts).
+    w.run_for(500_000);
+    let z = w.states()[0].underside_z;
+    assert!(
+        (z - cfg.chassis_clearance).abs() < 1.5e-3,
+        "underside at {z} m"
+    );
     w.command_all(Some([150.0, 150.0]));
     w.run_for(3_000_000);
     assert_eq!(fell(&w), vec![1], "{:?}", w.states());
+    assert!(w.states()[0].underside_z < -cfg.fall_depth);
 }
 
 #[test]

@@ -67,6 +67,8 @@ pub struct RobotState3d {
     pub linked: bool,
     /// Fell into a gap.
     pub fallen: bool,
+    /// Height of its underside's lowest corner (world z, m): the fall check's measure.
+    pub underside_z: f64,
 }
 
 #[derive(Debug)]
@@ -366,12 +368,7 @@ impl World3d {
                 *a += w * dt;
             }
             r.onboard.encoders(a0, r.angle, t0, t1);
-            let iso = self.bodies[r.bodies.chassis].position();
-            let z = r
-                .underside
-                .iter()
-                .map(|c| (iso * c).z)
-                .fold(f64::MAX, f64::min);
+            let z = underside_z(r, &self.bodies);
             if !r.fallen && z < self.fall_below {
                 r.fallen = true;
                 self.events.push(Event3d::Fell { t_us: t1, id: r.id });
@@ -428,6 +425,7 @@ impl World3d {
                     battery_v: r.battery_v,
                     linked: r.onboard.linked(),
                     fallen: r.fallen,
+                    underside_z: underside_z(r, &self.bodies),
                 }
             })
             .collect()
@@ -556,6 +554,15 @@ fn ground_under(t: &Terrain, p: &RobotParams, pose: Pose) -> f64 {
 }
 
 /// Corners of the chassis underside in the body frame.
+/// Height of robot `r`'s lowest underside corner (world z, m).
+fn underside_z(r: &Robot3d, bodies: &RigidBodySet) -> f64 {
+    let iso = bodies[r.bodies.chassis].position();
+    r.underside
+        .iter()
+        .map(|c| (iso * c).z)
+        .fold(f64::MAX, f64::min)
+}
+
 fn underside(p: &RobotParams, cfg: &Config3d) -> [Point<f64>; 4] {
     let (hl, hw) = (
         0.5 * f64::from(p.geometry.length),

@@ -4,6 +4,13 @@
 //! as fallen only once its underside is the world's fall depth below the lowest platform,
 //! and the assembly keeps driving while it tips that far. Stopping the same run at a chosen
 //! advance and holding it still measures the static point itself.
+//!
+//! A stop stands when, after the hold, no robot fell and none is tilted past
+//! [`MAX_TIP_ANGLE`], the largest tilt in the gate's small-angle picture of a tipping
+//! assembly: a mesh that tips over an edge and comes to rest with its front in the gap,
+//! pitched 20° on a wheel riding the corner, has lost its stance though no robot reached the
+//! fall depth (which lets a robot that dips while driving climb back out). A mesh settling a
+//! few degrees onto its hinges and wheels, as the gate's own settling predicts, stands.
 
 use crate::crossing::drive3d::{self, CrossSettings};
 use puzzlebot_params::terrain::Terrain;
@@ -11,6 +18,7 @@ use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::{Event3d, World3d};
 use puzzlebot_sim::Scenario;
 use puzzlebot_stability::crossing::{Candidate, CrossingOptions};
+use puzzlebot_stability::puzzlebot::MAX_TIP_ANGLE;
 
 /// How the tipping point is searched.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,8 +47,9 @@ impl Default for TipSearch {
     }
 }
 
-/// One probe: drive the run's assembly `d` forward, stop, hold. Whether a robot fell, and
-/// the farthest advance the assembly reached, its run-out after the stop included (m).
+/// One probe: drive the run's assembly `d` forward, stop, hold. Whether a robot fell or, at
+/// the end of the hold, is tilted past [`MAX_TIP_ANGLE`], and the farthest
+/// advance the assembly reached, its run-out after the stop included (m).
 fn probe(
     scenario: &Scenario,
     cand: &Candidate,
@@ -63,7 +72,9 @@ fn probe(
     };
     let mut w = World3d::new(scenario, settings.world).map_err(|e| e.to_string())?;
     let o = drive3d::cross(&mut w, &to_d, terrain, params, &settings);
-    let fell = w.events().iter().any(|e| matches!(e, Event3d::Fell { .. }));
+    let tilted = |rpy: [f64; 3]| (rpy[0].cos() * rpy[1].cos()).acos() > MAX_TIP_ANGLE;
+    let fell = w.events().iter().any(|e| matches!(e, Event3d::Fell { .. }))
+        || w.states().iter().any(|r| tilted(r.rpy));
     Ok((fell, o.peak_advance))
 }
 
