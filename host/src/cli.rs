@@ -319,9 +319,14 @@ pub(crate) enum ExperimentCmd {
         #[arg(long, default_value_t = 0)]
         threads: usize,
         /// Keep the physics' runs of this earlier `crossing.json` and re-run only the gate's
-        /// side (seconds instead of minutes, for work on the gate).
-        #[arg(long)]
+        /// side (seconds instead of minutes, for work on the gate), with the parameters
+        /// stored with the runs.
+        #[arg(long, conflicts_with = "params")]
         regate: Option<std::path::PathBuf>,
+        /// The robots' parameters (TOML, any fields of the parameter set; the rest default),
+        /// for the physics and the gate alike: your own robots, or a sensitivity study.
+        #[arg(long)]
+        params: Option<std::path::PathBuf>,
         /// Print the summary as JSON.
         #[arg(long)]
         json: bool,

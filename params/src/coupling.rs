@@ -111,6 +111,47 @@ pub struct KnobProbe {
 }
 
 impl Coupling {
+    /// Check ranges: every field finite and ≥ 0, the forces and stiffnesses that hold a
+    /// coupling > 0. The error names the field (`coupling.<field>`).
+    #[cfg(feature = "std")]
+    pub fn check(&self) -> Result<(), std::string::String> {
+        let positive = [
+            ("anchor_hold_force", self.anchor_hold_force),
+            ("knob_hold_force", self.knob_hold_force),
+            ("connector_stiffness", self.connector_stiffness),
+            (
+                "connector_angular_stiffness",
+                self.connector_angular_stiffness,
+            ),
+        ];
+        let non_negative = [
+            ("anchor_align_tolerance", self.anchor_align_tolerance),
+            ("anchor_push_force", self.anchor_push_force),
+            ("anchor_pull_force", self.anchor_pull_force),
+            ("anchor_yaw_range", self.anchor_yaw_range),
+            ("anchor_travel", self.anchor_travel),
+            ("anchor_entry_yaw", self.anchor_entry_yaw),
+            ("anchor_seat", self.anchor_seat),
+            ("knob_align_tolerance", self.knob_align_tolerance),
+            ("knob_yaw_tolerance", self.knob_yaw_tolerance),
+            ("knob_seat_gap", self.knob_seat_gap),
+            ("knob_play", self.knob_play),
+            ("robot_push_force", self.robot_push_force),
+            ("connector_damping_ratio", self.connector_damping_ratio),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("coupling.{name}: must be > 0, got {v}"));
+            }
+        }
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("coupling.{name}: must be ≥ 0, got {v}"));
+            }
+        }
+        Ok(())
+    }
+
     /// Tilt a knob allows about the shared face before its hooks catch (rad): the play over
     /// the knob across the knob and its hook (THESIS 2.4.1, Fig 2.11: the 1.5 mm hook
     /// `knob_seat_gap` behind the `geometry.knob_length` knob blocks the tilt). An estimate:
@@ -194,6 +235,28 @@ impl Coupling {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(feature = "std")]
+    #[test]
+    fn a_coupling_out_of_range_is_named() {
+        assert_eq!(Coupling::default().check(), Ok(()));
+        let c = Coupling {
+            knob_hold_force: f32::NAN,
+            ..Coupling::default()
+        };
+        assert!(c
+            .check()
+            .unwrap_err()
+            .starts_with("coupling.knob_hold_force"));
+        let c = Coupling {
+            connector_damping_ratio: -0.1,
+            ..Coupling::default()
+        };
+        assert!(c
+            .check()
+            .unwrap_err()
+            .starts_with("coupling.connector_damping_ratio: must be ≥ 0"));
+    }
 
     fn probe(x: f64, y: f64, yaw: f64) -> AnchorProbe {
         AnchorProbe { head: [x, y], yaw }

@@ -12,7 +12,8 @@ use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
 use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
 use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::{
-    assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
+    assembly_level, build_model_with, judge_model, LoadTransfer, Pair, PairKind, PuzzleAssembly,
+    RobotPose,
 };
 use puzzlebot_stability::sag::Settling;
 use serde::Serialize;
@@ -116,6 +117,7 @@ pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> Cross
             ..Settling::couplings(&params.non_pilot)
         }),
         bridge_speed: settings.speed,
+        transfer: LoadTransfer::of(params),
         ..CrossingOptions::default()
     }
 }

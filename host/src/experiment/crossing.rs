@@ -52,6 +52,8 @@ pub struct Options {
     pub threads: usize,
     /// Base seed.
     pub seed: u64,
+    /// The robots' parameters, for the physics and the gate alike.
+    pub params: FleetParams,
 }
 
 impl Options {
@@ -66,6 +68,7 @@ impl Options {
             runs: 5,
             threads: 0,
             seed: 1,
+            params: FleetParams::default(),
         }
     }
 
@@ -529,6 +532,9 @@ pub struct CrossingData {
     /// Base seed of the runs.
     #[serde(default = "default_seed")]
     pub seed: u64,
+    /// The robots' parameters the runs were made with (stored without: the defaults).
+    #[serde(default)]
+    pub params: FleetParams,
 }
 
 /// The seed of data stored before it was recorded: the protocol's.
@@ -538,7 +544,7 @@ fn default_seed() -> u64 {
 
 /// Run the experiment on `threads` workers; `on_series` after each series of obstacles.
 pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
-    let params = FleetParams::default();
+    let params = opt.params.clone();
     let configs = configs(&opt.robots, &params);
     let all = series(opt, &configs);
     let t0 = std::time::Instant::now();
@@ -573,11 +579,11 @@ pub fn run(opt: &Options, on_series: &(dyn Fn() + Sync)) -> CrossingData {
         skipped,
         wall_s: t0.elapsed().as_secs_f64(),
         seed: opt.seed,
+        params,
     }
 }
 
 /// Number of series (progress bar length of [`run`]).
 pub fn series_count(opt: &Options) -> usize {
-    let params = FleetParams::default();
-    series(opt, &configs(&opt.robots, &params)).len()
+    series(opt, &configs(&opt.robots, &opt.params)).len()
 }

@@ -18,7 +18,7 @@ pub fn regate(
     threads: usize,
     on_case: &(dyn Fn() + Sync),
 ) -> Result<(), String> {
-    let params = FleetParams::default();
+    let params = d.params.clone();
     let mut robots: Vec<usize> = d.configs.iter().map(|c| c.robots).collect();
     robots.dedup();
     let now = configs(&robots, &params);
@@ -139,7 +139,7 @@ pub fn fill_tips(
     threads: usize,
     on_run: &(dyn Fn() + Sync),
 ) -> Result<(), String> {
-    let params = FleetParams::default();
+    let params = d.params.clone();
     let todo: Vec<usize> = (0..d.runs.len())
         .filter(|&i| needs_tip(d, &d.runs[i]))
         .collect();
