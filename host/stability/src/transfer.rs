@@ -69,7 +69,7 @@ impl LoadTransfer {
     /// critical damping, 1 from there on; 2 for a ratio that is negative or not a number.
     pub fn amplification(&self) -> f64 {
         let z = self.damping_ratio;
-        if !(z > 0.0) {
+        if z.is_nan() || z <= 0.0 {
             2.0
         } else if z >= 1.0 {
             1.0
