@@ -26,7 +26,7 @@ fn a_sample_of_the_crossing_protocol() {
         mesh_headings: vec![],
         runs: 1,
         threads: 2,
-        seed: 1,
+        ..Options::full()
     };
     let d = run(&opt, &|| {});
     assert!(d.skipped.is_empty(), "{:?}", d.skipped);
