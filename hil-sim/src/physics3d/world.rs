@@ -144,21 +144,7 @@ impl World3d {
             .map_err(|e| inv(format!("terrain: {e}")))?;
         cfg.validate().map_err(inv)?;
         for p in [&scenario.params.pilot, &scenario.params.non_pilot] {
-            let c = &p.coupling;
-            for (n, v) in [
-                ("connector_stiffness", c.connector_stiffness),
-                ("connector_angular_stiffness", c.connector_angular_stiffness),
-            ] {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(inv(format!("params coupling.{n}: must be > 0, got {v}")));
-                }
-            }
-            if !(c.knob_play.is_finite() && c.knob_play >= 0.0) {
-                return Err(inv(format!(
-                    "params coupling.knob_play: must be ≥ 0, got {}",
-                    c.knob_play
-                )));
-            }
+            p.coupling.check().map_err(|e| inv(format!("params {e}")))?;
         }
         let mut params = IntegrationParameters {
             length_unit: LENGTH_UNIT,
