@@ -195,7 +195,7 @@ impl Fleet {
         let mut robot_params = Vec::new();
         for r in &config.robots {
             let p = match &r.params {
-                Some(file) => RobotParams::from_file(&base.join(file))?,
+                Some(file) => RobotParams::from_file_for(r.kind, &base.join(file))?,
                 None => config.params.robot(r.kind).clone(),
             };
             robot_params.push((r.id, p));

@@ -19,6 +19,8 @@ pub mod firmware;
 pub mod formation;
 pub mod geometry;
 #[cfg(feature = "std")]
+pub mod kind_defaults;
+#[cfg(feature = "std")]
 pub mod load;
 pub mod mass;
 pub mod plant;
@@ -70,9 +72,11 @@ impl RobotParams {
     }
 }
 
-/// Parameters of both kinds of a fleet.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+/// Parameters of both kinds of a fleet. Read from a file, each kind's table lies over that
+/// kind's defaults ([`kind_defaults`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[cfg_attr(not(feature = "std"), derive(Deserialize))]
+#[cfg_attr(not(feature = "std"), serde(default, deny_unknown_fields))]
 pub struct FleetParams {
     /// Pilot robots.
     pub pilot: RobotParams,

@@ -68,9 +68,23 @@ impl crate::FleetParams {
 }
 
 impl crate::RobotParams {
-    /// Load one robot's parameters (e.g. a calibration result) from a TOML file.
+    /// Load one robot's parameters (e.g. a calibration result) from a TOML file; missing
+    /// fields keep the non-pilot's defaults ([`crate::RobotParams::from_file_for`] takes the
+    /// robot's kind).
     pub fn from_file(path: &Path) -> Result<Self, LoadError> {
         from_toml_file(path)
+    }
+
+    /// Load one robot's parameters from a TOML file, missing fields keeping the defaults of
+    /// a robot of `kind`.
+    pub fn from_file_for(kind: crate::RobotKind, path: &Path) -> Result<Self, LoadError> {
+        let table: toml::Table = from_toml_file(path)?;
+        crate::kind_defaults::robot_over_defaults(kind, table).map_err(|message| LoadError::Parse {
+            path: path.to_path_buf(),
+            line: 1,
+            column: 1,
+            message,
+        })
     }
 }
 
@@ -87,6 +101,10 @@ mod tests {
         )
         .expect("valid");
         assert_eq!(p.pilot.drive.k_v, 0.003);
+        assert!(
+            p.pilot.plant.four_wheels,
+            "the pilot keeps its own defaults"
+        );
         assert_eq!(p.rates.mpc_hz, 20.0);
         assert_eq!(p.non_pilot, FleetParams::default().non_pilot);
     }
