@@ -129,10 +129,7 @@ async fn run(cli: Cli) -> anyhow::Result<()> {
             let args = {
                 use puzzlebot_host::crossing::drive3d::{crossing_options, CrossSettings};
                 let mut args = args;
-                let host = crossing_options(
-                    &CrossSettings::default(),
-                    &puzzlebot_params::FleetParams::default(),
-                );
+                let host = crossing_options(&CrossSettings::default(), &args.fleet_params()?);
                 args.drive_accel = args.drive_accel.or(Some(host.drive_accel));
                 args.speed = args.speed.or(Some(host.bridge_speed));
                 args

@@ -65,14 +65,33 @@ pub struct CrossingArgs {
     /// coupling).
     #[arg(long)]
     pub connector_damping: Option<f64>,
+    /// The robots' parameters (TOML, any fields of the parameter set; the rest default).
+    #[arg(long)]
+    pub params: Option<std::path::PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
 }
 
 impl CrossingArgs {
+    /// The robots' parameters: `--params`, checked, or the defaults.
+    pub fn fleet_params(&self) -> Result<FleetParams, PlanError> {
+        let Some(file) = &self.params else {
+            return Ok(FleetParams::default());
+        };
+        let p: FleetParams = puzzlebot_params::load::from_toml_file(file)
+            .map_err(|e| PlanError::Input(e.to_string()))?;
+        for (kind, r) in [("pilot", &p.pilot), ("non_pilot", &p.non_pilot)] {
+            r.coupling
+                .check()
+                .map_err(|e| PlanError::Input(format!("{}: {kind}.{e}", file.display())))?;
+        }
+        Ok(p)
+    }
+
     /// Run the planner: its table (or JSON) as text.
     pub fn run(&self) -> Result<String, PlanError> {
+        let params = self.fleet_params()?;
         crossing_command(
             &self.terrain,
             self.robots,
@@ -83,8 +102,9 @@ impl CrossingArgs {
                 speed: self.speed.unwrap_or(0.0),
                 connector_damping: self
                     .connector_damping
-                    .unwrap_or_else(|| LoadTransfer::default().damping_ratio),
+                    .unwrap_or_else(|| LoadTransfer::of(&params).damping_ratio),
             },
+            &params,
             self.json,
         )
     }
@@ -103,14 +123,15 @@ pub struct Drive {
     pub connector_damping: f64,
 }
 
-/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON, the gate's
-/// proof covering `drive`.
+/// `crossing --terrain FILE --robots N --pilots P`: the ranking as text or JSON for robots
+/// `params`, the gate's proof covering `drive`.
 pub fn crossing_command(
     terrain: &std::path::Path,
     robots: usize,
     pilots: usize,
     start_y: f64,
     drive: Drive,
+    params: &FleetParams,
     json: bool,
 ) -> Result<String, PlanError> {
     for (name, v) in [
@@ -130,11 +151,11 @@ pub fn crossing_command(
         bridge_speed: drive.speed,
         transfer: LoadTransfer {
             damping_ratio: drive.connector_damping,
-            ..defaults.transfer
+            ..LoadTransfer::of(params)
         },
         ..defaults
     };
-    let c = plan(&t, &FleetParams::default(), robots, pilots, &opt)?;
+    let c = plan(&t, params, robots, pilots, &opt)?;
     Ok(if json {
         serde_json::to_string_pretty(&c).map_err(|e| PlanError::Input(e.to_string()))?
     } else {

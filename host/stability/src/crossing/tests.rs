@@ -72,3 +72,32 @@ fn a_single_robot_cannot_cross_what_a_mesh_can() {
     let e = plan(&gap(0.04), &p, 2, 3, &opt).unwrap_err().to_string();
     assert!(e.contains("--pilots"), "{e}");
 }
+
+#[test]
+fn a_bad_parameter_file_is_refused_by_name_before_planning() {
+    let dir = std::env::temp_dir().join(format!("puzzlebot-plan-params-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("robots.toml");
+    std::fs::write(&file, "[pilot.coupling]\nknob_hold_force = -1.0\n").unwrap();
+    let args = CrossingArgs {
+        terrain: dir.join("no-terrain.toml"),
+        robots: 4,
+        pilots: 1,
+        start_y: 0.0,
+        drive_accel: None,
+        speed: None,
+        connector_damping: None,
+        params: Some(file.clone()),
+        json: false,
+    };
+    let e = args.run().unwrap_err().to_string();
+    assert!(
+        e.contains("robots.toml") && e.contains("pilot.coupling.knob_hold_force"),
+        "{e}"
+    );
+    std::fs::write(&file, "[pilot.coupling]\nconnector_damping_ratio = 0.01\n").unwrap();
+    let p = args.fleet_params().unwrap();
+    assert_eq!(LoadTransfer::of(&p).damping_ratio, 0.01f32 as f64);
+    assert!(p.pilot.plant.four_wheels);
+    std::fs::remove_dir_all(&dir).ok();
+}
