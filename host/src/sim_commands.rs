@@ -158,14 +158,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             }
             opt.threads = threads;
             if let Some(file) = params {
-                let p: puzzlebot_params::FleetParams =
-                    puzzlebot_params::load::from_toml_file(&file)?;
-                for (kind, r) in [("pilot", &p.pilot), ("non_pilot", &p.non_pilot)] {
-                    r.coupling
-                        .check()
-                        .map_err(|e| anyhow::anyhow!("{}: {kind}.{e}", file.display()))?;
-                }
-                opt.params = p;
+                opt.params = puzzlebot_params::FleetParams::from_file(&file)?;
             }
             let (s, text, dir) = tokio::task::spawn_blocking(move || {
                 crossing_report::command(&opt, regate.as_deref(), &runs, !json)

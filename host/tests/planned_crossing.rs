@@ -30,16 +30,20 @@ fn the_thesis_crossing_5_mm_down_gets_across() {
 fn the_thesis_crossing_5_mm_down_is_refused_with_undamped_connectors() {
     // The knob between robots 2 and 4 may ring to 101 % of its limits where the last caster
     // leaves the high platform (123 mm).
-    let params = FleetParams::default();
-    let terrain = Obstacle {
-        width: 0.04,
-        drop: 0.005,
-    }
-    .terrain();
-    let mut opt = drive3d::crossing_options(&settings(), &params);
-    opt.transfer.damping_ratio = 0.0;
-    let ranked = plan(&terrain, &params, 4, 1, &opt).expect("plan");
+    let ranked = plan_four(0.005, Some(0.0));
     assert!(ranked.iter().all(|c| !c.crosses()), "{:?}", ranked[0]);
+}
+
+/// The planner's ranking for 4 robots with one pilot over a 40 mm gap whose far platform is
+/// `drop` lower, the connectors' damping ratio `damping` (default: the parameter set's).
+fn plan_four(drop: f64, damping: Option<f64>) -> Vec<Candidate> {
+    let params = FleetParams::default();
+    let terrain = Obstacle { width: 0.04, drop }.terrain();
+    let mut opt = drive3d::crossing_options(&settings(), &params);
+    if let Some(z) = damping {
+        opt.transfer.damping_ratio = z;
+    }
+    plan(&terrain, &params, 4, 1, &opt).expect("plan")
 }
 
 /// Plan 4 robots with one pilot over a 40 mm gap whose far platform is `drop` lower, and
@@ -48,8 +52,7 @@ fn cross_planned(drop: f64) {
     let params = FleetParams::default();
     let terrain = Obstacle { width: 0.04, drop }.terrain();
     let s = settings();
-    let opt = drive3d::crossing_options(&s, &params);
-    let ranked = plan(&terrain, &params, 4, 1, &opt).expect("plan");
+    let ranked = plan_four(drop, None);
     let best = &ranked[0];
     let table: Vec<String> = ranked
         .iter()

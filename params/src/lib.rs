@@ -97,6 +97,16 @@ impl Default for FleetParams {
 }
 
 impl FleetParams {
+    /// Check ranges of both kinds (the couplings, [`coupling::Coupling::check`]); the error
+    /// names the field (`pilot.coupling.<field>`).
+    #[cfg(feature = "std")]
+    pub fn check(&self) -> Result<(), std::string::String> {
+        for (kind, r) in [("pilot", &self.pilot), ("non_pilot", &self.non_pilot)] {
+            r.coupling.check().map_err(|e| std::format!("{kind}.{e}"))?;
+        }
+        Ok(())
+    }
+
     /// Parameters of a robot of `kind`.
     pub fn robot(&self, kind: RobotKind) -> &RobotParams {
         match kind {

@@ -13,6 +13,14 @@ pub enum LoadError {
         /// The cause (in the message, so it is not repeated as an error source).
         cause: std::io::Error,
     },
+    /// A value is out of its range.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong, naming the field.
+        message: String,
+    },
     /// The file is not valid TOML or a field is wrong.
     #[error("{path}:{line}:{column}: {message}")]
     Parse {
@@ -61,9 +69,15 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl crate::FleetParams {
-    /// Load fleet parameters from a TOML file; missing fields keep THESIS defaults.
+    /// Load fleet parameters from a TOML file, missing fields keeping THESIS defaults, and
+    /// check their ranges ([`crate::FleetParams::check`]).
     pub fn from_file(path: &Path) -> Result<Self, LoadError> {
-        from_toml_file(path)
+        let p: Self = from_toml_file(path)?;
+        p.check().map_err(|message| LoadError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        })?;
+        Ok(p)
     }
 }
 

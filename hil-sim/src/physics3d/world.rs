@@ -143,9 +143,10 @@ impl World3d {
             .validate_solid()
             .map_err(|e| inv(format!("terrain: {e}")))?;
         cfg.validate().map_err(inv)?;
-        for p in [&scenario.params.pilot, &scenario.params.non_pilot] {
-            p.coupling.check().map_err(|e| inv(format!("params {e}")))?;
-        }
+        scenario
+            .params
+            .check()
+            .map_err(|e| inv(format!("params {e}")))?;
         let mut params = IntegrationParameters {
             length_unit: LENGTH_UNIT,
             num_solver_iterations: cfg.solver_iterations,
@@ -539,7 +540,6 @@ fn ground_under(t: &Terrain, p: &RobotParams, pose: Pose) -> f64 {
         .unwrap_or_else(|| terrain::lowest_top(t))
 }
 
-/// Corners of the chassis underside in the body frame.
 /// Height of robot `r`'s lowest underside corner (world z, m).
 fn underside_z(r: &Robot3d, bodies: &RigidBodySet) -> f64 {
     let iso = bodies[r.bodies.chassis].position();
@@ -549,6 +549,7 @@ fn underside_z(r: &Robot3d, bodies: &RigidBodySet) -> f64 {
         .fold(f64::MAX, f64::min)
 }
 
+/// Corners of the chassis underside in the body frame.
 fn underside(p: &RobotParams, cfg: &Config3d) -> [Point<f64>; 4] {
     let (hl, hw) = (
         0.5 * f64::from(p.geometry.length),

@@ -79,14 +79,7 @@ impl CrossingArgs {
         let Some(file) = &self.params else {
             return Ok(FleetParams::default());
         };
-        let p: FleetParams = puzzlebot_params::load::from_toml_file(file)
-            .map_err(|e| PlanError::Input(e.to_string()))?;
-        for (kind, r) in [("pilot", &p.pilot), ("non_pilot", &p.non_pilot)] {
-            r.coupling
-                .check()
-                .map_err(|e| PlanError::Input(format!("{}: {kind}.{e}", file.display())))?;
-        }
-        Ok(p)
+        FleetParams::from_file(file).map_err(|e| PlanError::Input(e.to_string()))
     }
 
     /// Run the planner: its table (or JSON) as text.
