@@ -82,6 +82,12 @@ pub trait Controller: Send {
     fn hand_requests(&mut self) -> Vec<HandRequest> {
         Vec::new()
     }
+    /// How long robot `id` keeps driving its latest command if no further one arrives (ms,
+    /// capped by its firmware's `max_hold_ms`): sent as [`HostMsg::WheelSpeedHold`]. 0 (the
+    /// default): the firmware's failsafe stops it after its timeout.
+    fn hold_ms(&self, _id: RobotId) -> u16 {
+        0
+    }
     /// Where the run is (scenario step, pairs coupled), for the progress line on the terminal.
     fn progress(&self) -> Option<crate::replay::Progress> {
         None
@@ -390,13 +396,7 @@ impl ControlLoop {
                         let wt = r.stab.step(w, measured, dt);
                         wheels = Some([wt.left_rpm, wt.right_rpm]);
                         self.link
-                            .command(
-                                rv.id,
-                                HostMsg::WheelSpeed {
-                                    left_rpm: wt.left_rpm as f32,
-                                    right_rpm: wt.right_rpm as f32,
-                                },
-                            )
+                            .command(rv.id, wheel_msg(wt, controller.hold_ms(rv.id)))
                             .await;
                     }
                 }
@@ -478,6 +478,23 @@ impl DriveMap {
             cal
         } else {
             geo
+        }
+    }
+}
+
+/// The drive command of wheel targets `wt`, kept `hold_ms` through link silence when > 0.
+pub fn wheel_msg(wt: crate::drive::WheelTargets, hold_ms: u16) -> HostMsg {
+    let (left_rpm, right_rpm) = (wt.left_rpm as f32, wt.right_rpm as f32);
+    if hold_ms > 0 {
+        HostMsg::WheelSpeedHold {
+            left_rpm,
+            right_rpm,
+            hold_ms,
+        }
+    } else {
+        HostMsg::WheelSpeed {
+            left_rpm,
+            right_rpm,
         }
     }
 }

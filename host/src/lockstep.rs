@@ -369,10 +369,7 @@ impl Lockstep {
                                 None
                             };
                             let wt = stab.step(w, measured, dt);
-                            HostMsg::WheelSpeed {
-                                left_rpm: wt.left_rpm as f32,
-                                right_rpm: wt.right_rpm as f32,
-                            }
+                            crate::control::wheel_msg(wt, ctl.hold_ms(rv.id))
                         }
                         (_, stab) => {
                             if let Some((s, _)) = stab {

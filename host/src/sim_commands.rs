@@ -27,7 +27,19 @@ async fn run_assembly(
     let title = format!("assembly-{}", scenario.name);
     let live = live::serve_requested(live, || Ok(RunInfo::of_simulator(&sim)), &title).await?;
     let shown = puzzlebot_host::replay::progress::show();
-    let report = if lockstep {
+    let crosses = scenario.steps.iter().any(|s| {
+        matches!(
+            s.behaviour,
+            puzzlebot_host::assemble::assembly::scenario::Behaviour::Cross { .. }
+        )
+    });
+    if crosses && !lockstep {
+        tracing::info!(
+            "the scenario crosses terrain: running in lockstep, where the 3-D world takes over \
+             at the cross step"
+        );
+    }
+    let report = if lockstep || crosses {
         let runs = runs.to_path_buf();
         let (report, _mcap) = tokio::task::spawn_blocking(move || {
             puzzlebot_host::record::run_scenario_lockstep(scenario, sim, &runs, limit)

@@ -170,6 +170,15 @@ pub enum Behaviour {
         /// Done within this distance (m).
         tolerance: f64,
     },
+    /// The formed assembly crosses the terrain ahead of it, driven by the host along its
+    /// heading once the stability gate proves the whole crossing (THESIS 3.5.2, SOCP §4);
+    /// the coordinator holds meanwhile and the host reports the result
+    /// ([`crate::ScenarioRunner::finish_crossing`]).
+    Cross {
+        /// Terrain file (`[[platforms]]`), relative paths resolved against the scenario's
+        /// folder.
+        terrain: std::path::PathBuf,
+    },
 }
 
 /// A robot's own goal in a disperse step.

@@ -71,6 +71,20 @@ pub struct AssemblyController {
     finished_at: Option<f64>,
     /// Hand requests not yet taken by the run ([`Controller::hand_requests`]).
     hand: Vec<HandRequest>,
+    /// Terrain of every cross step, loaded before the run.
+    #[cfg(feature = "sim")]
+    terrains: BTreeMap<std::path::PathBuf, puzzlebot_params::terrain::Terrain>,
+    /// The crossing behaviour driving the robots during a cross step.
+    #[cfg(feature = "sim")]
+    crossing: Option<crate::crossing::controller::CrossingController>,
+    /// Where every cross step of the run ended.
+    #[cfg(feature = "sim")]
+    pub crossings: Vec<crate::crossing::controller::CrossProgress>,
+    /// A simulated run moves the robots into the 3-D world at a cross step: the controller
+    /// holds and reports done when one is due ([`AssemblyController::crossing_pending`]),
+    /// and the run goes on in the 3-D world with this off.
+    #[cfg(feature = "sim")]
+    pub hand_over_crossings: bool,
 }
 
 impl AssemblyController {
@@ -82,6 +96,19 @@ impl AssemblyController {
     ) -> anyhow::Result<Self> {
         for w in slow_step_warnings(&scenario, &params) {
             tracing::warn!("{w}");
+        }
+        #[cfg(feature = "sim")]
+        let terrains = super::cross_step::load_terrains(&scenario)?;
+        #[cfg(not(feature = "sim"))]
+        if scenario.steps.iter().any(|s| {
+            matches!(
+                s.behaviour,
+                puzzlebot_assembly::scenario::Behaviour::Cross { .. }
+            )
+        }) {
+            anyhow::bail!(
+                "cross steps need the crossing planner of the default build (feature `sim`)"
+            );
         }
         let coordinator = Coordinator::from_params(&params);
         let geometry = params.non_pilot.geometry;
@@ -117,6 +144,14 @@ impl AssemblyController {
             coupled: BTreeSet::new(),
             finished_at: None,
             hand: Vec::new(),
+            #[cfg(feature = "sim")]
+            terrains,
+            #[cfg(feature = "sim")]
+            crossing: None,
+            #[cfg(feature = "sim")]
+            crossings: Vec::new(),
+            #[cfg(feature = "sim")]
+            hand_over_crossings: false,
         })
     }
 
@@ -197,6 +232,58 @@ impl AssemblyController {
                 BTreeSet::new()
             };
         separate_making_way(&self.separation, states, &alone, &holders, &exempt, out);
+    }
+
+    /// During a cross step, the crossing behaviour's commands: started on the step's first
+    /// tick from the measured assembly (or refused, failing the step), its result reported
+    /// to the runner when it stops. `None` outside a cross step.
+    #[cfg(feature = "sim")]
+    fn cross(&mut self, view: &FleetView) -> Option<BTreeMap<RobotId, Twist>> {
+        use super::cross_step;
+        let file = self.runner.crossing_due()?.to_path_buf();
+        if self.crossing.is_none() && self.hand_over_crossings {
+            return Some(BTreeMap::new());
+        }
+        if self.crossing.is_none() {
+            let links = cross_step::connected(self.runner.coordinator());
+            let started = cross_step::terrain_of(&self.terrains, &file)
+                .and_then(|t| cross_step::start(view, &links, t, &self.params));
+            match started {
+                Ok(c) => {
+                    if self.log_milestones {
+                        tracing::info!("crossing: the gate proves it; driving across");
+                    }
+                    self.crossing = Some(c.with_rate(self.rate_hz()));
+                }
+                Err(why) => {
+                    self.runner.finish_crossing(Err(why));
+                    return Some(BTreeMap::new());
+                }
+            }
+        }
+        let c = self.crossing.as_mut()?;
+        let out = c.update(view);
+        if let Some((_, advance, stop)) = &c.progress().stopped {
+            let result = cross_step::result(stop, *advance);
+            self.crossings.push(c.progress().clone());
+            self.crossing = None;
+            self.runner.finish_crossing(result);
+        }
+        Some(out)
+    }
+
+    /// A cross step is due and its crossing has not started: the terrain file it names.
+    #[cfg(feature = "sim")]
+    pub fn crossing_pending(&self) -> Option<&std::path::Path> {
+        self.runner
+            .crossing_due()
+            .filter(|_| self.crossing.is_none())
+    }
+
+    /// The loaded terrain of a cross step's file.
+    #[cfg(feature = "sim")]
+    pub fn terrain(&self, file: &std::path::Path) -> Option<&puzzlebot_params::terrain::Terrain> {
+        self.terrains.get(file)
     }
 
     fn limits(&self, kind: RobotKind) -> Limits {
@@ -285,6 +372,11 @@ impl Controller for AssemblyController {
         self.events.extend(tick.events.iter().cloned());
         if !matches!(self.runner.state(), RunState::Running { .. }) && self.finished_at.is_none() {
             self.finished_at = Some(t);
+        }
+        #[cfg(feature = "sim")]
+        if let Some(out) = self.cross(view) {
+            self.poses.sent(view.t, &out);
+            return out;
         }
         let by_id: BTreeMap<RobotId, &RobotState> = predicted.iter().map(|s| (s.id, s)).collect();
         let mut inputs = Vec::new();
@@ -445,6 +537,10 @@ impl Controller for AssemblyController {
     }
 
     fn done(&self, t: f64) -> bool {
+        #[cfg(feature = "sim")]
+        if self.hand_over_crossings && self.crossing_pending().is_some() {
+            return true;
+        }
         self.finished_at.is_some_and(|f| t >= f + self.settle)
     }
 
@@ -454,6 +550,14 @@ impl Controller for AssemblyController {
 
     fn hand_requests(&mut self) -> Vec<HandRequest> {
         std::mem::take(&mut self.hand)
+    }
+
+    fn hold_ms(&self, _id: RobotId) -> u16 {
+        #[cfg(feature = "sim")]
+        if let Some(c) = &self.crossing {
+            return c.hold_ms(_id);
+        }
+        0
     }
 
     fn progress(&self) -> Option<crate::replay::Progress> {

@@ -22,6 +22,8 @@ use puzzlebot_params::FleetParams;
 
 pub mod controller;
 pub mod costs;
+#[cfg(feature = "sim")]
+pub mod cross_step;
 pub mod fleet_run;
 #[cfg(feature = "sim")]
 pub mod fleets;

@@ -85,11 +85,12 @@ pub fn run_scenario_lockstep(
     let name = format!("assembly-{}", scenario.name);
     let mut ls = crate::lockstep::Lockstep::new(&sim)?;
     let mut ctl = AssemblyController::new(scenario, params, gate)?;
+    ctl.hand_over_crossings = true;
     let mut folder = RunFolder::create(runs_dir, &name)?;
     // The simulator's ground-truth paths for the run folder's trajectory plot, at 10 Hz.
     let mut next = 0.0;
     let mut written = Ok(());
-    ls.run(&mut ctl, max_duration, |w, t| {
+    let flat = ls.run(&mut ctl, max_duration, |w, t| {
         if t >= next {
             next = t + 0.1;
             for r in w.ground_truth().robots {
@@ -101,17 +102,96 @@ pub fn run_scenario_lockstep(
             }
         }
     });
+    let truth = ls.world.ground_truth();
+    let crossed = match ctl.crossing_pending().map(std::path::Path::to_path_buf) {
+        Some(file) => {
+            let left = (max_duration - flat.t_end).max(0.0);
+            let w = cross_in_3d(&mut ctl, &sim, &truth, &file, flat.t_end, left, |w, t| {
+                for r in w.states() {
+                    let tr = folder.traces.entry(r.id).or_default();
+                    tr.actual.push((t, r.position[0], r.position[1]));
+                    if written.is_ok() {
+                        written = folder.telemetry(&TruthRecord {
+                            t,
+                            robot: r.id,
+                            truth: [r.position[0], r.position[1], r.rpy[2]],
+                            v: r.speed,
+                            omega: 0.0,
+                            wheel_rpm: r.wheel_rpm,
+                            duty: [0, 0],
+                        });
+                    }
+                }
+            })?;
+            Some(w)
+        }
+        None => None,
+    };
     written.context("writing telemetry.jsonl")?;
     write_events(&mut folder, &ctl)?;
     folder.finish()?;
-    let report = report_of(
-        &folder,
-        &ctl,
-        RunSummary::default(),
-        &ls.world.ground_truth(),
-    );
+    let mut report = report_of(&folder, &ctl, RunSummary::default(), &truth);
+    if let Some(w) = &crossed {
+        // The run ended in the 3-D world: its poses and falls are the run's.
+        for r in w.states() {
+            report
+                .final_poses
+                .insert(r.id, [r.position[0], r.position[1], r.rpy[2]]);
+            if r.fallen && !report.fallen.contains(&r.id) {
+                report.fallen.push(r.id);
+            }
+        }
+        folder.write_json("crossings.json", &ctl.crossings)?;
+    }
     folder.write_json("assembly_report.json", &report)?;
     Ok(report)
+}
+
+/// At a cross step the simulated robots move from the flat 2-D world into the 3-D world on
+/// the step's terrain, with the poses, kinds and couplings they have there (the 3-D world
+/// takes over where the assembly reaches terrain), and `ctl` goes on in it for up to `limit`
+/// s: the crossing and any steps after it. The 3-D world at the end.
+fn cross_in_3d(
+    ctl: &mut AssemblyController,
+    sim: &puzzlebot_sim::Scenario,
+    truth: &puzzlebot_sim::GroundTruth,
+    file: &Path,
+    t_flat: f64,
+    limit: f64,
+    hook: impl FnMut(&puzzlebot_sim::physics3d::World3d, f64),
+) -> anyhow::Result<puzzlebot_sim::physics3d::World3d> {
+    use puzzlebot_sim::physics3d::{Config3d, World3d};
+    let terrain = ctl
+        .terrain(file)
+        .with_context(|| format!("terrain {} was not loaded", file.display()))?
+        .clone();
+    let robots = sim
+        .robots
+        .iter()
+        .filter_map(|spec| {
+            let r = truth.robot(spec.id).filter(|r| r.online && !r.fallen)?;
+            Some(puzzlebot_sim::RobotSpec {
+                pose: [r.pose.x, r.pose.y, r.pose.yaw],
+                ..spec.clone()
+            })
+        })
+        .collect();
+    let couplings = truth
+        .coupled
+        .iter()
+        .map(|&(a, b, kind)| puzzlebot_sim::CouplingSpec { kind, a, b })
+        .collect();
+    let s3 = puzzlebot_sim::Scenario {
+        robots,
+        couplings,
+        terrain,
+        ..sim.clone()
+    };
+    let mut w = World3d::new(&s3, Config3d::default())
+        .map_err(|e| anyhow::anyhow!("the 3-D world at the cross step: {e}"))?;
+    ctl.hand_over_crossings = false;
+    crate::crossing::world_run::run(&mut w, ctl, &sim.params, t_flat, limit, hook);
+    Ok(w)
 }
 
 #[cfg(test)]

@@ -4,17 +4,17 @@
 //! measured poses and stop it the moment the gate cannot prove it, then take it apart on the
 //! far platform.
 
+use super::controller::{CrossStop, CrossingController};
 use super::formed::Formed;
+use crate::control::{Controller, FleetView, RobotView};
+use crate::drive::PoseSample;
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
 use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
 use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
-use puzzlebot_stability::puzzlebot::{
-    assembly_level, build_model_with, judge_model, LoadTransfer, Pair, PairKind, PuzzleAssembly,
-    RobotPose,
-};
+use puzzlebot_stability::puzzlebot::LoadTransfer;
 use puzzlebot_stability::sag::Settling;
 use serde::Serialize;
 
@@ -124,8 +124,17 @@ pub fn crossing_options(settings: &CrossSettings, params: &FleetParams) -> Cross
 
 impl Default for CrossSettings {
     fn default() -> Self {
+        CrossSettings::for_params(&FleetParams::default())
+    }
+}
+
+impl CrossSettings {
+    /// The host's crossing of robots with `params`: at their quasi-static speed, steered
+    /// with their heading gain, the gate checking every 5 mm, holds through the stretches
+    /// proven only at speed, stopping at the first failure.
+    pub fn for_params(params: &FleetParams) -> Self {
         CrossSettings {
-            speed: quasi_static_speed(&FleetParams::default()),
+            speed: quasi_static_speed(params),
             gate_every: 0.005,
             overshoot: 0.025,
             settle_s: 0.5,
@@ -133,22 +142,9 @@ impl Default for CrossSettings {
             stop_on_failure: true,
             hold_through_stretches: true,
             link_loss_at: None,
-            heading_gain: heading_gain(&FleetParams::default()),
+            heading_gain: heading_gain(params),
             world: Config3d::default(),
         }
-    }
-}
-
-/// Command every non-pilot of `st` to drive at the crossing speed, turning at
-/// `s.heading_gain` times its heading's error from `heading` (rad); pilots keep equal wheel
-/// speeds.
-fn steer(w: &mut World3d, st: &[RobotState3d], heading: f64, s: &CrossSettings, p: &FleetParams) {
-    let half_base = 0.5 * f64::from(p.non_pilot.geometry.wheel_base);
-    for r in st.iter().filter(|r| r.kind != RobotKind::Pilot) {
-        let e = heading - r.rpy[2];
-        let turn = s.heading_gain * e.sin().atan2(e.cos());
-        let [l, rr] = [s.speed - turn * half_base, s.speed + turn * half_base];
-        w.command(r.id, Some([rpm_for(l, p), rpm_for(rr, p)]));
     }
 }
 
@@ -250,68 +246,6 @@ pub struct CrossOutcome {
     pub across: usize,
 }
 
-/// The gate's verdict on the assembly as measured now, travelling along `heading` (rad) with
-/// the planner's options `opt` (`None`: stable).
-pub fn gate_now(
-    states: &[RobotState3d],
-    held: &[(LinkKind, RobotId, RobotId)],
-    params: &FleetParams,
-    terrain: &Terrain,
-    opt: &CrossingOptions,
-    heading: f64,
-) -> Option<String> {
-    let robots: Vec<RobotPose> = states
-        .iter()
-        .map(|s| RobotPose {
-            kind: s.kind,
-            x: s.position[0],
-            y: s.position[1],
-            yaw: s.rpy[2],
-        })
-        .collect();
-    let index = |id: RobotId| states.iter().position(|s| s.id == id);
-    let g = &params.non_pilot.geometry;
-    let (side, half_w) = (f64::from(g.side_point_x), 0.5 * f64::from(g.width));
-    let pairs = held
-        .iter()
-        .filter_map(|&(k, a, b)| {
-            let (ia, ib) = (index(a)?, index(b)?);
-            Some(match k {
-                LinkKind::Anchor => Pair {
-                    a: ia,
-                    b: ib,
-                    kind: PairKind::Anchor,
-                    point: None,
-                },
-                LinkKind::Knob => {
-                    // The side point of `a` nearest `b`, as the planner places it.
-                    let (ra, rb) = (&robots[ia], &robots[ib]);
-                    let (s, c) = ra.yaw.sin_cos();
-                    let fwd = c * (rb.x - ra.x) + s * (rb.y - ra.y);
-                    Pair {
-                        a: ia,
-                        b: ib,
-                        kind: PairKind::Knob,
-                        point: Some([fwd.clamp(-side, side), half_w]),
-                    }
-                }
-            })
-        })
-        .collect();
-    let a = PuzzleAssembly { robots, pairs };
-    let Some(level) = assembly_level(&a, params, terrain) else {
-        return Some("no support under any robot".into());
-    };
-    let opt = opt.advance_options(0.0);
-    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
-        .and_then(|m| judge_model(&m, params, &opt, heading))
-    {
-        Ok(None) => None,
-        Ok(Some(why)) => Some(format!("{why:?}")),
-        Err(e) => Some(e.to_string()),
-    }
-}
-
 /// Couplings still holding (kind, a, b).
 pub fn held(w: &World3d) -> Vec<(LinkKind, RobotId, RobotId)> {
     w.couplings()
@@ -326,9 +260,11 @@ fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
     t.platforms.iter().position(|pl| pl.contains(p))
 }
 
-/// Drive the assembly of `w` (standing where `c` starts) across along `c`'s heading; stop
-/// once it advanced `c.required + overshoot`, or the gate cannot prove the measured
-/// assembly, a robot fell or a connector opened.
+/// Drive the assembly of `w` (standing where `c` starts) across along `c`'s heading with
+/// the host's [`CrossingController`] on the world's poses (its own gate checks them against
+/// the couplings holding at the start); stop once it advanced `c.required + overshoot`, the
+/// gate cannot prove the measured assembly, or (with `stop_on_failure`) a robot fell or a
+/// connector opened.
 pub fn cross(
     w: &mut World3d,
     c: &Candidate,
@@ -337,26 +273,23 @@ pub fn cross(
     s: &CrossSettings,
 ) -> CrossOutcome {
     w.run_for((s.settle_s * 1e6) as u64);
-    let heading = c.heading_deg.to_radians();
-    let dir = [heading.cos(), heading.sin()];
     let start: Vec<[f64; 3]> = w.states().iter().map(|r| r.position).collect();
     let start_platform = start
         .first()
         .and_then(|p| platform_at(terrain, [p[0], p[1]]));
-    let advance_of = |st: &[RobotState3d]| {
-        let n = st.len().max(1) as f64;
-        st.iter()
-            .zip(&start)
-            .map(|(r, p0)| (r.position[0] - p0[0]) * dir[0] + (r.position[1] - p0[1]) * dir[1])
-            .sum::<f64>()
-            / n
-    };
-    let goal = c.required + s.overshoot;
-    let t_limit = w.time_us() + ((2.0 * goal / s.speed + 2.0) * 1e6) as u64;
+    let members = w.states().iter().map(|r| r.id).collect();
+    let mut ctl = CrossingController::new(
+        c.clone(),
+        terrain.clone(),
+        params.clone(),
+        *s,
+        members,
+        held(w),
+    );
+    let t_limit = w.time_us() + (ctl.time_limit_s() * 1e6) as u64;
     let t0 = w.time_us();
-    let rpm = rpm_for(s.speed, params);
-    let opt = crossing_options(s, params);
-    let tick_us = 10_000; // 100 Hz host loop on the measured poses
+    let tick_us = (1e6 / ctl.rate_hz()).round() as u64;
+    let half_base = 0.5 * f64::from(params.non_pilot.geometry.wheel_base);
     let mut out = CrossOutcome {
         crossed: false,
         advance: 0.0,
@@ -370,29 +303,14 @@ pub fn cross(
         peak_knob_share: 0.0,
         across: 0,
     };
-    // The plan's stretches proven only at speed, widened by how far the measured advance (an
-    // average over the robots) can lie from the plan's rigid translation: a check's spacing,
-    // and half the travel of every anchor sliding in its opening. No check stops the drive
-    // there: stopping is what would tip the assembly.
-    let travel = f64::from(params.non_pilot.coupling.anchor_travel);
-    let anchors = held(w).iter().filter(|h| h.0 == LinkKind::Anchor).count();
-    let slack = s.gate_every + 0.5 * travel * anchors as f64;
-    // The end of the widened stretch the advance `d` lies in, if any.
-    let stretch_end = |d: f64| {
-        c.advance
-            .bridged
-            .iter()
-            .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
-            .map(|b| b[1] + slack)
-            .reduce(f64::max)
+    // The host's commands to the world: each twist as wheel speeds, with its hold.
+    let apply = |w: &mut World3d, ctl: &mut CrossingController, view: &FleetView| {
+        for (id, t) in ctl.update(view) {
+            let [l, r] = [t.v - t.omega * half_base, t.v + t.omega * half_base];
+            w.command(id, Some([rpm_for(l, params), rpm_for(r, params)]));
+        }
+        w.hold_all(ctl.hold_ms(0));
     };
-    // How long the drive needs to leave it (ms, 0 outside one).
-    let hold_ms = |d: f64| {
-        stretch_end(d).map_or(0, |end| {
-            ((end - d) / s.speed * 1e3).ceil().min(f64::from(u16::MAX)) as u16
-        })
-    };
-    let mut next_check = 0.0;
     let mut seen_events = w.events().len();
     let mut linked = true;
     // Without the link the robots stop on their own: by the longest hold and the failsafe
@@ -405,23 +323,16 @@ pub fn cross(
         .unwrap_or(0)
         + 1_000_000;
     let mut lost_us = u64::MAX;
-    w.command_all(Some([rpm, rpm]));
+    apply(w, &mut ctl, &view_of(w));
     while w.time_us() < t_limit && w.time_us().saturating_sub(lost_us) < silence_us {
         w.run_for(tick_us);
-        let st = w.states();
-        let d = advance_of(&st);
+        let view = view_of(w);
+        let d = ctl.advance(&view);
         out.advance = d;
         if linked && s.link_loss_at.is_some_and(|at| d >= at) {
             linked = false;
             lost_us = w.time_us();
             w.command_all(None);
-        }
-        if linked && s.heading_gain > 0.0 {
-            steer(w, &st, heading, s, params);
-        }
-        if linked && s.hold_through_stretches {
-            // Looking one host period ahead: the hold must already run when the link fails.
-            w.hold_all(hold_ms(d + s.speed * tick_us as f64 * 1e-6));
         }
         for e in &w.events()[seen_events..] {
             match *e {
@@ -436,28 +347,30 @@ pub fn cross(
         }
         seen_events = w.events().len();
         let failed = !out.fell.is_empty() || !out.broke.is_empty();
-        if (failed && s.stop_on_failure) || d >= goal {
+        if (failed && s.stop_on_failure) || d >= ctl.goal() {
             break;
         }
-        if linked && s.live_gate && d >= next_check && stretch_end(d).is_none() {
-            out.gate_checks += 1;
-            if let Some(why) = gate_now(&st, &held(w), params, terrain, &opt, heading) {
-                out.gate_stop = Some((d, why));
+        if linked {
+            apply(w, &mut ctl, &view);
+            if ctl.stopped() {
                 break;
             }
-            next_check = d + s.gate_every;
         }
     }
     if linked {
         w.hold_all(0);
         w.command_all(Some([0.0, 0.0]));
     }
+    out.gate_checks = ctl.progress().gate_checks;
+    if let Some((_, d, CrossStop::Gate(why))) = &ctl.progress().stopped {
+        out.gate_stop = Some((*d, why.clone()));
+    }
     out.drive_s = (w.time_us() - t0) as f64 * 1e-6;
     let t_stop = w.time_us();
     out.peak_advance = out.advance;
     while w.time_us() < t_stop + (s.settle_s * 1e6) as u64 {
         w.run_for(tick_us);
-        out.rest_advance = advance_of(&w.states());
+        out.rest_advance = ctl.advance(&view_of(w));
         out.peak_advance = out.peak_advance.max(out.rest_advance);
     }
     let knob = f64::from(params.non_pilot.coupling.knob_hold_force);
@@ -482,6 +395,31 @@ pub fn cross(
         && out.broke.is_empty()
         && out.gate_stop.is_none();
     out
+}
+
+/// What the host sees of the world now: every robot's exact pose (the world's motion
+/// capture), no velocity estimate.
+pub fn view_of(w: &World3d) -> FleetView {
+    let t = w.time_us() as f64 * 1e-6;
+    FleetView {
+        t,
+        robots: w
+            .states()
+            .iter()
+            .map(|r| RobotView {
+                id: r.id,
+                kind: r.kind,
+                pose: Some(PoseSample {
+                    t,
+                    x: r.position[0],
+                    y: r.position[1],
+                    theta: r.rpy[2],
+                }),
+                velocity: None,
+            })
+            .collect(),
+        latency_s: 0.0,
+    }
 }
 
 /// How the assembly came apart on the far platform.

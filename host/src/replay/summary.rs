@@ -133,7 +133,13 @@ impl Summary {
                     .windows(2)
                     .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
                     .sum();
-                let end = path.last().copied().unwrap_or_default();
+                // The run's own end (a run that went on in the 3-D world ends there).
+                let end = report
+                    .final_poses
+                    .get(&b.id)
+                    .copied()
+                    .or(path.last().copied())
+                    .unwrap_or_default();
                 robots.push(RobotRow {
                     id: b.id,
                     kind: match b.kind {

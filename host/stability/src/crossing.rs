@@ -225,6 +225,63 @@ pub fn plan_formed(
     ranked(out, opt)
 }
 
+/// The crossing of an assembly as it stands: its robots `a` (the layout's order of `shape`,
+/// front first) with pilots `pilots` (indices into `a`), driven from where they are along
+/// `heading` (rad from the crossing direction +x, the robots' own heading). The start
+/// platform is the one under every robot's centre.
+pub fn plan_placed(
+    terrain: &Terrain,
+    params: &FleetParams,
+    shape: Shape,
+    pilots: &[usize],
+    a: &PuzzleAssembly,
+    heading: f64,
+    opt: &CrossingOptions,
+) -> Result<Candidate, PlanError> {
+    let n = shape.count();
+    if a.robots.len() != n || pilots.iter().any(|&k| k >= n) {
+        return Err(PlanError::Input(format!(
+            "{}: {} robots given, pilots {pilots:?}",
+            shape.name(),
+            a.robots.len()
+        )));
+    }
+    let one = CrossingOptions {
+        headings: vec![heading],
+        ..opt.clone()
+    };
+    check_inputs(terrain, &one)?;
+    let under: Vec<Option<usize>> = a
+        .robots
+        .iter()
+        .map(|r| platform_at(terrain, [r.x, r.y]))
+        .collect();
+    let Some(start) = under[0].filter(|&p| under.iter().all(|&u| u == Some(p))) else {
+        let k = under
+            .iter()
+            .position(|u| u.is_none() || *u != under[0])
+            .unwrap_or(0);
+        let r = &a.robots[k];
+        return Err(PlanError::Input(format!(
+            "the assembly does not stand on one platform: robot {k} at ({:.3}, {:.3}) m",
+            r.x, r.y
+        )));
+    };
+    let place = Placed {
+        shape,
+        pilots: place_of(shape, pilots),
+        pilot_robots: pilots,
+        start,
+        front: [a.robots[0].x, a.robots[0].y],
+    };
+    judge_placed(terrain, params, a, &place, heading, opt)?.ok_or_else(|| {
+        PlanError::Input(format!(
+            "driving on along {:.0}° does not put every robot on another platform",
+            heading.to_degrees()
+        ))
+    })
+}
+
 fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanError> {
     terrain
         .validate_solid()
@@ -308,6 +365,39 @@ fn candidate(
         .fold(f64::MIN, f64::max);
     let front = [edge - opt.clearance - reach, opt.start_y];
     let a = formed_with(shape, set, links, params, front, heading);
+    let place = Placed {
+        shape,
+        pilots: place,
+        pilot_robots: set,
+        start,
+        front,
+    };
+    judge_placed(terrain, params, &a, &place, heading, opt)
+}
+
+/// The assembly as it stands: its shape, pilots and start platform.
+struct Placed<'a> {
+    shape: Shape,
+    pilots: PilotPlace,
+    pilot_robots: &'a [usize],
+    /// Index of the start platform.
+    start: usize,
+    /// The front robot's centre (m).
+    front: [f64; 2],
+}
+
+/// The gate's answer for assembly `a`, placed as `place` says, driven along `heading`.
+fn judge_placed(
+    terrain: &Terrain,
+    params: &FleetParams,
+    a: &PuzzleAssembly,
+    place: &Placed,
+    heading: f64,
+    opt: &CrossingOptions,
+) -> Result<Option<Candidate>, PlanError> {
+    let (shape, start) = (place.shape, place.start);
+    let g = &params.non_pilot.geometry;
+    let (s, c) = heading.sin_cos();
     // Advance along the heading until every robot stands wholly on another platform: every
     // underside corner over one, and every wheel a radius clear of the start platform, so
     // that none still rests on its edge.
@@ -339,7 +429,7 @@ fn candidate(
         }
     }
     let advance = max_safe_advance_with(
-        &a,
+        a,
         params,
         terrain,
         heading,
@@ -355,7 +445,7 @@ fn candidate(
         _ => advance.distance.min(required + 0.01) - required,
     };
     let stability_margin = if margin >= 0.0 {
-        sampled_margin(&a, params, terrain, heading, required, opt).map_err(|cause| {
+        sampled_margin(a, params, terrain, heading, required, opt).map_err(|cause| {
             PlanError::Adapter {
                 shape: shape.name(),
                 cause,
@@ -366,10 +456,10 @@ fn candidate(
     };
     Ok(Some(Candidate {
         shape: shape.name(),
-        pilots: place,
-        pilot_robots: set.to_vec(),
+        pilots: place.pilots,
+        pilot_robots: place.pilot_robots.to_vec(),
         heading_deg: heading.to_degrees(),
-        start: front,
+        start: place.front,
         diagonal_deg: formation::diagonal_angle(shape, g).to_degrees(),
         required,
         advance,

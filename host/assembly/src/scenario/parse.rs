@@ -37,6 +37,13 @@ struct HoldFile {
     duration_s: NonNeg,
 }
 
+/// `cross = { terrain = "gap40.toml" }`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CrossFile {
+    terrain: String,
+}
+
 /// `move = { velocity = [v, w], duration_s }` | `{ go_to = [x, y] or [x, y, yaw_deg], tolerance }`
 /// | `{ trajectory = [[t, x, y], …] or [[t, x, y, yaw_deg], …] }`.
 #[derive(Debug, Clone, Deserialize)]
@@ -129,6 +136,8 @@ struct StepFile {
     decouple: Option<DecoupleFile>,
     #[serde(default)]
     disperse: Option<DisperseFile>,
+    #[serde(default)]
+    cross: Option<CrossFile>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -208,12 +217,15 @@ impl Scenario {
             if s.disperse.is_some() {
                 given.push("disperse");
             }
+            if s.cross.is_some() {
+                given.push("cross");
+            }
             if given.len() != 1 {
                 return Err(invalid(
                     span,
                     format!("step[{k}]"),
                     format!(
-                        "exactly one behaviour expected (form, hold, move, rendezvous, anti_rendezvous, decouple, disperse), found {}",
+                        "exactly one behaviour expected (form, hold, move, rendezvous, anti_rendezvous, decouple, disperse, cross), found {}",
                         if given.is_empty() { "none".to_string() } else { given.join(", ") }
                     ),
                 ));
@@ -418,6 +430,10 @@ impl Scenario {
                         period_s: d.period_s.map_or(def.period_s, |v| v.0),
                         square: d.square.unwrap_or(def.square),
                     },
+                }
+            } else if let Some(c) = &s.cross {
+                Behaviour::Cross {
+                    terrain: base.join(&c.terrain),
                 }
             } else {
                 let d = s.disperse.as_ref().expect("one behaviour given");

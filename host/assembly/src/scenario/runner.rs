@@ -36,6 +36,8 @@ pub struct ScenarioRunner {
     recoupling: Option<Recoupling>,
     /// Re-couplings so far, per step index.
     recouples: BTreeMap<usize, u32>,
+    /// The host's result of the current cross step, once it has one.
+    crossing: Option<Result<(), String>>,
 }
 
 /// Times a move step re-couples a pair that came apart before it fails.
@@ -64,6 +66,31 @@ impl ScenarioRunner {
             step_start: None,
             recoupling: None,
             recouples: BTreeMap::new(),
+            crossing: None,
+        }
+    }
+
+    /// The terrain file of the cross step running now, while the host has not reported its
+    /// result ([`ScenarioRunner::finish_crossing`]).
+    pub fn crossing_due(&self) -> Option<&std::path::Path> {
+        let RunState::Running { index } = self.state else {
+            return None;
+        };
+        match &self.scenario.steps.get(index)?.behaviour {
+            Behaviour::Cross { terrain }
+                if self.step_start.is_some() && self.crossing.is_none() =>
+            {
+                Some(terrain)
+            }
+            _ => None,
+        }
+    }
+
+    /// The host's result of the running cross step: across (`Ok`), or why not; the step
+    /// finishes or fails on the next tick.
+    pub fn finish_crossing(&mut self, result: Result<(), String>) {
+        if self.crossing_due().is_some() {
+            self.crossing = Some(result);
         }
     }
 
@@ -155,6 +182,10 @@ impl ScenarioRunner {
                     .map_err(|e| e.to_string())?;
             }
             Behaviour::Hold { .. } => c.set_mode(t, Mode::Hold),
+            Behaviour::Cross { .. } => {
+                self.crossing = None;
+                c.set_mode(t, Mode::Hold)
+            }
             Behaviour::Velocity { v, w, .. } => c.set_mode(t, Mode::Velocity { v, w }),
             Behaviour::GoTo { goal, .. } => {
                 let heading = c.plan().map_or(0.0, |p| p.heading);
@@ -322,6 +353,7 @@ impl ScenarioRunner {
                 })
             }
             Behaviour::Decouple { .. } => c.decouple_done(),
+            Behaviour::Cross { .. } => matches!(self.crossing, Some(Ok(()))),
             Behaviour::Disperse { tolerance, .. } => match c.mode() {
                 Mode::Disperse { goals, .. } => goals.iter().all(|(id, g)| {
                     c.lost().contains(id)
@@ -399,6 +431,10 @@ impl ScenarioRunner {
                 for task in &mut tick.tasks {
                     task.role = Role::Hold;
                 }
+            } else if let (Behaviour::Cross { .. }, Some(Err(why))) =
+                (&step.behaviour, self.crossing.clone())
+            {
+                self.fail(t, index, format!("step '{}': {why}", step.label));
             } else if self.done(t, start, &step, &tick) {
                 self.coordinator
                     .record(t, EventKind::StepFinished { index });

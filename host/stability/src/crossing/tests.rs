@@ -101,3 +101,47 @@ fn a_bad_parameter_file_is_refused_by_name_before_planning() {
     assert!(p.pilot.plant.four_wheels);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn an_assembly_is_planned_from_where_it_stands() {
+    let p = FleetParams::default();
+    let opt = CrossingOptions {
+        headings: vec![0.0, 0.35, 0.7],
+        ..CrossingOptions::default()
+    };
+    let mesh = Shape::Mesh {
+        rows: 2,
+        per_row: 2,
+    };
+    let links = formation::layout(mesh, &p.non_pilot.geometry).1;
+    let all = plan(&gap(0.04), &p, 4, 1, &opt).unwrap();
+    let planned = all
+        .iter()
+        .find(|c| c.shape == "mesh 2x2" && c.crosses())
+        .unwrap_or_else(|| panic!("{}", render(&all)));
+    let pilots = planned.pilot_robots.clone();
+    let h = planned.heading_deg.to_radians();
+    let at = |start: [f64; 2]| formed_with(mesh, &pilots, &links, &p, start, h);
+    let here = plan_placed(&gap(0.04), &p, mesh, &pilots, &at(planned.start), h, &opt).unwrap();
+    assert!((here.required - planned.required).abs() < 1e-9);
+    assert_eq!(here.advance, planned.advance);
+    // 10 cm further back along its heading: 10 cm more to drive, and still proven.
+    let back = [
+        planned.start[0] - 0.1 * h.cos(),
+        planned.start[1] - 0.1 * h.sin(),
+    ];
+    let far = plan_placed(&gap(0.04), &p, mesh, &pilots, &at(back), h, &opt).unwrap();
+    assert!(
+        (far.required - planned.required - 0.1).abs() < 0.0015,
+        "{}",
+        far.required
+    );
+    assert!(far.crosses());
+    // A lone robot at the edge is refused; an assembly astride the gap is an error.
+    let lone = formed_with(Shape::Line(1), &[], &[], &p, planned.start, 0.0);
+    let c = plan_placed(&gap(0.04), &p, Shape::Line(1), &[], &lone, 0.0, &opt).unwrap();
+    assert!(!c.crosses());
+    let astride = at([0.05, 0.0]);
+    let e = plan_placed(&gap(0.04), &p, mesh, &pilots, &astride, h, &opt).unwrap_err();
+    assert!(e.to_string().contains("one platform"), "{e}");
+}

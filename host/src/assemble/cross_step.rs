@@ -1,0 +1,181 @@
+//! A scenario's `cross` step on the host: read the formed assembly from the measured poses
+//! and the pairs the coordinator counts as connected, plan its crossing from where it
+//! stands along its own heading ([`plan_placed`]), refuse with the number that failed when
+//! the stability gate cannot prove all of it, and otherwise hand the robots to the crossing
+//! behaviour ([`CrossingController`]) until it reports across or why not.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use puzzlebot_assembly::scenario::Behaviour;
+use puzzlebot_assembly::{Coordinator, PairStatus, PairType, Scenario as AsmScenario};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::RobotId;
+use puzzlebot_sim::LinkKind;
+use puzzlebot_stability::crossing::{load_terrain, plan_formed, plan_placed, Candidate};
+use puzzlebot_stability::puzzlebot::{Pair, PairKind, PuzzleAssembly, RobotPose};
+
+use crate::control::FleetView;
+use crate::crossing::controller::{knob_point, CrossStop, CrossingController};
+use crate::crossing::drive3d::{crossing_options, CrossSettings};
+use crate::crossing::formed::Formed;
+
+/// The terrain of every cross step of `scenario`, loaded and checked before anything moves;
+/// an error names the step and the file, line and field.
+pub fn load_terrains(scenario: &AsmScenario) -> anyhow::Result<BTreeMap<PathBuf, Terrain>> {
+    let mut out = BTreeMap::new();
+    for step in &scenario.steps {
+        if let Behaviour::Cross { terrain } = &step.behaviour {
+            let t = load_terrain(terrain).map_err(|e| {
+                anyhow::anyhow!("step '{}' (line {}): terrain: {e}", step.label, step.line)
+            })?;
+            out.insert(terrain.clone(), t);
+        }
+    }
+    Ok(out)
+}
+
+/// Couplings the coordinator counts as connected (kind, robot with the anchor / knob, robot
+/// with the opening / hole).
+pub fn connected(c: &Coordinator) -> Vec<(LinkKind, RobotId, RobotId)> {
+    c.pairs()
+        .iter()
+        .filter(|p| p.status == PairStatus::Connected)
+        .map(|p| {
+            let kind = match p.pair.kind {
+                PairType::AnchorOpening => LinkKind::Anchor,
+                PairType::KnobHole => LinkKind::Knob,
+            };
+            (kind, p.pair.a, p.pair.b)
+        })
+        .collect()
+}
+
+/// The crossing of the assembly of `view` held by `links` over `terrain`, from where it
+/// stands along its heading; the host's crossing behaviour when the gate proves it all,
+/// otherwise why not, with the number that failed and the heading that would cross, if any.
+pub fn start(
+    view: &FleetView,
+    links: &[(LinkKind, RobotId, RobotId)],
+    terrain: &Terrain,
+    params: &FleetParams,
+) -> Result<CrossingController, String> {
+    let poses: BTreeMap<RobotId, [f64; 3]> = view
+        .robots
+        .iter()
+        .filter_map(|r| r.pose.map(|p| (r.id, [p.x, p.y, p.theta])))
+        .collect();
+    let kinds: BTreeMap<RobotId, RobotKind> = view.robots.iter().map(|r| (r.id, r.kind)).collect();
+    let g = &params.non_pilot.geometry;
+    let formed =
+        Formed::read(&poses, &kinds, links, g).map_err(|e| format!("the assembly: {e}"))?;
+    let robots: Vec<RobotPose> = formed
+        .ids
+        .iter()
+        .zip(&formed.kinds)
+        .map(|(id, &kind)| {
+            let p = poses[id];
+            RobotPose {
+                kind,
+                x: p[0],
+                y: p[1],
+                yaw: p[2],
+            }
+        })
+        .collect();
+    // The assembly's heading: the mean of its robots' headings.
+    let (s, c) = robots
+        .iter()
+        .fold((0.0, 0.0), |(s, c), r| (s + r.yaw.sin(), c + r.yaw.cos()));
+    let heading = s.atan2(c);
+    let pairs = formed
+        .links
+        .iter()
+        .map(|&(l, a, b)| match l {
+            puzzlebot_params::formation::Link::Anchor => Pair {
+                a,
+                b,
+                kind: PairKind::Anchor,
+                point: None,
+            },
+            puzzlebot_params::formation::Link::Knob => Pair {
+                a,
+                b,
+                kind: PairKind::Knob,
+                point: Some(knob_point(&robots[a], &robots[b], g)),
+            },
+        })
+        .collect();
+    let a = PuzzleAssembly { robots, pairs };
+    let settings = CrossSettings::for_params(params);
+    let opt = crossing_options(&settings, params);
+    let pilots = formed.pilots();
+    let here = plan_placed(terrain, params, formed.shape, &pilots, &a, heading, &opt)
+        .map_err(|e| e.to_string())?;
+    if !here.crosses() {
+        let better = plan_formed(terrain, params, formed.shape, &pilots, &formed.links, &opt)
+            .ok()
+            .and_then(|r| r.into_iter().find(Candidate::crosses))
+            .map_or("at no heading of the planner's".to_string(), |b| {
+                format!("at {:.0}° from the crossing direction", b.heading_deg)
+            });
+        return Err(format!(
+            "refused: along its heading ({:.0}° from the crossing direction) the gate proves \
+             {:.0} mm of the {:.0} mm the {} needs ({:?}); it proves the crossing {better}",
+            heading.to_degrees(),
+            here.advance.distance * 1e3,
+            here.required * 1e3,
+            formed.shape.name(),
+            here.advance.limited_by,
+        ));
+    }
+    let links: Vec<(LinkKind, RobotId, RobotId)> = formed
+        .links
+        .iter()
+        .map(|&(l, a, b)| {
+            let kind = match l {
+                puzzlebot_params::formation::Link::Anchor => LinkKind::Anchor,
+                puzzlebot_params::formation::Link::Knob => LinkKind::Knob,
+            };
+            (kind, formed.ids[a], formed.ids[b])
+        })
+        .collect();
+    Ok(CrossingController::new(
+        here,
+        terrain.clone(),
+        params.clone(),
+        settings,
+        formed.ids.clone(),
+        links,
+    ))
+}
+
+/// The step's result from how the crossing behaviour stopped.
+pub fn result(stop: &CrossStop, advance: f64) -> Result<(), String> {
+    match stop {
+        CrossStop::Reached => Ok(()),
+        CrossStop::Gate(why) => Err(format!(
+            "stopped by the gate at {:.0} mm: {why}",
+            advance * 1e3
+        )),
+        CrossStop::PoseLost(id) => Err(format!(
+            "stopped at {:.0} mm: no pose of robot {id}",
+            advance * 1e3
+        )),
+        CrossStop::TimedOut => Err(format!(
+            "stopped at {:.0} mm: the crossing took too long",
+            advance * 1e3
+        )),
+    }
+}
+
+/// The terrain of `file` among the loaded ones.
+pub fn terrain_of<'a>(
+    terrains: &'a BTreeMap<PathBuf, Terrain>,
+    file: &Path,
+) -> Result<&'a Terrain, String> {
+    terrains
+        .get(file)
+        .ok_or_else(|| format!("terrain {} was not loaded", file.display()))
+}

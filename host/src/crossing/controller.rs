@@ -1,0 +1,377 @@
+//! The host's crossing behaviour as a [`Controller`]: it drives a formed assembly along the
+//! planned heading at the crossing speed, re-checks the assembly it measures with the
+//! stability gate at every `gate_every` of advance and stops it the moment the gate cannot
+//! prove it, and through a stretch the plan proves only at speed asks the robots to keep
+//! driving if the link falls silent. The same controller drives the 3-D world
+//! ([`super::drive3d::cross`]) and a real fleet over the link ([`crate::control::ControlLoop`]):
+//! it sees only measured poses and the couplings the host believes hold.
+
+use std::collections::BTreeMap;
+
+use puzzlebot_params::geometry::Geometry;
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_protocol::RobotId;
+use puzzlebot_sim::LinkKind;
+use puzzlebot_stability::crossing::{Candidate, CrossingOptions};
+use puzzlebot_stability::puzzlebot::{
+    assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
+};
+use serde::Serialize;
+
+use super::drive3d::{crossing_options, CrossSettings};
+use crate::control::{Controller, FleetView};
+use crate::drive::Twist;
+
+/// Why a crossing drive stopped.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CrossStop {
+    /// It advanced the plan's required distance and the overshoot.
+    Reached,
+    /// The gate could not prove the measured assembly (its verdict).
+    Gate(String),
+    /// A robot of the assembly had no fresh pose.
+    PoseLost(RobotId),
+    /// It ran out of time: twice the time the advance takes at speed, and two seconds.
+    TimedOut,
+}
+
+/// Where a crossing drive is.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CrossProgress {
+    /// Advance along the heading, averaged over the robots (m).
+    pub advance: f64,
+    /// Gate checks of the measured poses.
+    pub gate_checks: usize,
+    /// Host time the drive started (s), once it did.
+    pub started_s: Option<f64>,
+    /// Host time and advance it stopped at, and why.
+    pub stopped: Option<(f64, f64, CrossStop)>,
+}
+
+/// The crossing behaviour (see the module doc).
+pub struct CrossingController {
+    plan: Candidate,
+    terrain: Terrain,
+    params: FleetParams,
+    settings: CrossSettings,
+    /// Robots of the assembly; others stand still.
+    members: Vec<RobotId>,
+    /// Couplings the host believes hold (kind, robot with the anchor / knob, other robot).
+    links: Vec<(LinkKind, RobotId, RobotId)>,
+    opt: CrossingOptions,
+    /// Robots and where each stood when the drive started, in the order first seen.
+    start: Vec<(RobotId, [f64; 2])>,
+    /// Advance of the next gate check (m).
+    next_check: f64,
+    /// Hold of the latest commands (ms).
+    hold: u16,
+    /// How often the host calls it (Hz).
+    rate_hz: f64,
+    progress: CrossProgress,
+}
+
+impl CrossingController {
+    /// A crossing along `plan` over `terrain` of the robots `members` with `params`, coupled
+    /// by `links`.
+    pub fn new(
+        plan: Candidate,
+        terrain: Terrain,
+        params: FleetParams,
+        settings: CrossSettings,
+        members: Vec<RobotId>,
+        links: Vec<(LinkKind, RobotId, RobotId)>,
+    ) -> Self {
+        let opt = crossing_options(&settings, &params);
+        CrossingController {
+            plan,
+            terrain,
+            params,
+            settings,
+            members,
+            links,
+            opt,
+            start: Vec::new(),
+            next_check: 0.0,
+            hold: 0,
+            rate_hz: 100.0,
+            progress: CrossProgress {
+                advance: 0.0,
+                gate_checks: 0,
+                started_s: None,
+                stopped: None,
+            },
+        }
+    }
+
+    /// Called `hz` times a second (the default is 100 Hz, the 3-D world's host loop).
+    pub fn with_rate(mut self, hz: f64) -> Self {
+        if hz.is_finite() && hz > 0.0 {
+            self.rate_hz = hz;
+        }
+        self
+    }
+
+    /// Advance at which the drive ends: the plan's required advance and the overshoot (m).
+    pub fn goal(&self) -> f64 {
+        self.plan.required + self.settings.overshoot
+    }
+
+    /// Longest the drive may take (s): twice the time of its advance at speed, and two
+    /// seconds to start and stop.
+    pub fn time_limit_s(&self) -> f64 {
+        2.0 * self.goal() / self.settings.speed + 2.0
+    }
+
+    /// Where the drive is.
+    pub fn progress(&self) -> &CrossProgress {
+        &self.progress
+    }
+
+    /// The drive has stopped.
+    pub fn stopped(&self) -> bool {
+        self.progress.stopped.is_some()
+    }
+
+    /// Advance of the robots of `view` since the drive started, along the heading (m): the
+    /// mean over the robots with a pose (0 before the start).
+    pub fn advance(&self, view: &FleetView) -> f64 {
+        let dir = self.direction();
+        let (mut sum, mut n) = (0.0, 0usize);
+        for r in &view.robots {
+            let (Some(p), Some((_, p0))) = (r.pose, self.start.iter().find(|(id, _)| *id == r.id))
+            else {
+                continue;
+            };
+            sum += (p.x - p0[0]) * dir[0] + (p.y - p0[1]) * dir[1];
+            n += 1;
+        }
+        sum / n.max(1) as f64
+    }
+
+    fn heading(&self) -> f64 {
+        self.plan.heading_deg.to_radians()
+    }
+
+    fn direction(&self) -> [f64; 2] {
+        let h = self.heading();
+        [h.cos(), h.sin()]
+    }
+
+    /// The plan's stretches proven only at speed, widened by how far the measured advance
+    /// (an average over the robots) can lie from the plan's rigid translation: a check's
+    /// spacing, and half the travel of every anchor sliding in its opening. The end of the
+    /// widened stretch `d` lies in, if any. No check stops the drive there: stopping is
+    /// what would tip the assembly.
+    fn stretch_end(&self, d: f64) -> Option<f64> {
+        let travel = f64::from(self.params.non_pilot.coupling.anchor_travel);
+        let anchors = self
+            .links
+            .iter()
+            .filter(|l| l.0 == LinkKind::Anchor)
+            .count();
+        let slack = self.settings.gate_every + 0.5 * travel * anchors as f64;
+        self.plan
+            .advance
+            .bridged
+            .iter()
+            .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
+            .map(|b| b[1] + slack)
+            .reduce(f64::max)
+    }
+
+    /// How long the drive needs to leave the stretch `d` lies in (ms; 0 outside one).
+    fn hold_ms_at(&self, d: f64) -> u16 {
+        self.stretch_end(d).map_or(0, |end| {
+            ((end - d) / self.settings.speed * 1e3)
+                .ceil()
+                .min(f64::from(u16::MAX)) as u16
+        })
+    }
+
+    fn stop(&mut self, t: f64, why: CrossStop) {
+        self.hold = 0;
+        self.progress.stopped = Some((t, self.progress.advance, why));
+    }
+
+    /// Twists of every robot of `view`: stopped, or at the crossing speed with each
+    /// non-pilot steered back to the heading (pilots drive straight only, THESIS 5.4.1).
+    fn twists(&self, view: &FleetView, steer: bool) -> BTreeMap<RobotId, Twist> {
+        let heading = self.heading();
+        view.robots
+            .iter()
+            .map(|r| {
+                let member = self.members.contains(&r.id);
+                let t = match (self.stopped() || !member, r.pose) {
+                    (true, _) | (false, None) => Twist::new(0.0, 0.0),
+                    (false, Some(p)) => {
+                        let e = heading - p.theta;
+                        let turn = if steer && r.kind != RobotKind::Pilot {
+                            self.settings.heading_gain * e.sin().atan2(e.cos())
+                        } else {
+                            0.0
+                        };
+                        Twist::new(self.settings.speed, turn)
+                    }
+                };
+                (r.id, t)
+            })
+            .collect()
+    }
+}
+
+impl Controller for CrossingController {
+    fn name(&self) -> &str {
+        "cross"
+    }
+
+    fn rate_hz(&self) -> f64 {
+        self.rate_hz
+    }
+
+    fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
+        if self.stopped() {
+            return self.twists(view, false);
+        }
+        let lost = self
+            .members
+            .iter()
+            .find(|id| !view.robots.iter().any(|r| r.id == **id && r.pose.is_some()));
+        if let Some(&id) = lost {
+            self.stop(view.t, CrossStop::PoseLost(id));
+            return self.twists(view, false);
+        }
+        let Some(t0) = self.progress.started_s else {
+            // The first update sets the start: the drive starts from rest with equal wheel
+            // speeds, the heading feedback acts from the next update on.
+            self.start = view
+                .robots
+                .iter()
+                .filter(|r| self.members.contains(&r.id))
+                .filter_map(|r| r.pose.map(|p| (r.id, [p.x, p.y])))
+                .collect();
+            self.progress.started_s = Some(view.t);
+            return self.twists(view, false);
+        };
+        let d = self.advance(view);
+        self.progress.advance = d;
+        if d >= self.goal() {
+            self.stop(view.t, CrossStop::Reached);
+            return self.twists(view, false);
+        }
+        if view.t - t0 >= self.time_limit_s() {
+            self.stop(view.t, CrossStop::TimedOut);
+            return self.twists(view, false);
+        }
+        // Looking one host period ahead: the hold must already run when the link fails.
+        self.hold = if self.settings.hold_through_stretches {
+            let period = (1e6 / self.rate_hz()).round() * 1e-6;
+            self.hold_ms_at(d + self.settings.speed * period)
+        } else {
+            0
+        };
+        if self.settings.live_gate && d >= self.next_check && self.stretch_end(d).is_none() {
+            self.progress.gate_checks += 1;
+            let poses: Vec<(RobotId, RobotPose)> = view
+                .robots
+                .iter()
+                .filter(|r| self.members.contains(&r.id))
+                .filter_map(|r| {
+                    r.pose.map(|p| {
+                        let pose = RobotPose {
+                            kind: r.kind,
+                            x: p.x,
+                            y: p.y,
+                            yaw: p.theta,
+                        };
+                        (r.id, pose)
+                    })
+                })
+                .collect();
+            let verdict = gate_now(
+                &poses,
+                &self.links,
+                &self.params,
+                &self.terrain,
+                &self.opt,
+                self.heading(),
+            );
+            if let Some(why) = verdict {
+                self.stop(view.t, CrossStop::Gate(why));
+                return self.twists(view, false);
+            }
+            self.next_check = d + self.settings.gate_every;
+        }
+        self.twists(view, self.settings.heading_gain > 0.0)
+    }
+
+    fn done(&self, _t: f64) -> bool {
+        self.stopped()
+    }
+
+    /// Coupled robots move as the assembly does: no velocity stabiliser.
+    fn stabilise(&self, _id: RobotId) -> bool {
+        false
+    }
+
+    fn hold_ms(&self, _id: RobotId) -> u16 {
+        self.hold
+    }
+}
+
+/// The gate's verdict on the assembly of robots `poses` (in their order) coupled by `held`,
+/// travelling along `heading` (rad) with the planner's options `opt` (`None`: stable).
+pub fn gate_now(
+    poses: &[(RobotId, RobotPose)],
+    held: &[(LinkKind, RobotId, RobotId)],
+    params: &FleetParams,
+    terrain: &Terrain,
+    opt: &CrossingOptions,
+    heading: f64,
+) -> Option<String> {
+    let robots: Vec<RobotPose> = poses.iter().map(|p| p.1).collect();
+    let index = |id: RobotId| poses.iter().position(|p| p.0 == id);
+    let g = &params.non_pilot.geometry;
+    let pairs = held
+        .iter()
+        .filter_map(|&(k, a, b)| {
+            let (ia, ib) = (index(a)?, index(b)?);
+            Some(match k {
+                LinkKind::Anchor => Pair {
+                    a: ia,
+                    b: ib,
+                    kind: PairKind::Anchor,
+                    point: None,
+                },
+                LinkKind::Knob => Pair {
+                    a: ia,
+                    b: ib,
+                    kind: PairKind::Knob,
+                    point: Some(knob_point(&robots[ia], &robots[ib], g)),
+                },
+            })
+        })
+        .collect();
+    let a = PuzzleAssembly { robots, pairs };
+    let Some(level) = assembly_level(&a, params, terrain) else {
+        return Some("no support under any robot".into());
+    };
+    let opt = opt.advance_options(0.0);
+    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
+        .and_then(|m| judge_model(&m, params, &opt, heading))
+    {
+        Ok(None) => None,
+        Ok(Some(why)) => Some(format!("{why:?}")),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+/// Where the knob of robot `a` holding robot `b` sits in `a`'s frame: the side point of `a`
+/// nearest `b`, as the planner places it.
+pub fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
+    let side = f64::from(g.side_point_x);
+    let (s, c) = a.yaw.sin_cos();
+    let fwd = c * (b.x - a.x) + s * (b.y - a.y);
+    [fwd.clamp(-side, side), 0.5 * f64::from(g.width)]
+}
