@@ -245,7 +245,12 @@ impl AssemblyController {
             return Some(BTreeMap::new());
         }
         if self.crossing.is_none() {
-            let links = cross_step::connected(self.runner.coordinator());
+            let mut links = cross_step::connected(self.runner.coordinator());
+            for k in cross_step::seated_knobs(view, &self.params) {
+                if !links.iter().any(|l| l.1 == k.1 && l.2 == k.2) {
+                    links.push(k);
+                }
+            }
             let started = cross_step::terrain_of(&self.terrains, &file)
                 .and_then(|t| cross_step::start(view, &links, t, &self.params));
             match started {

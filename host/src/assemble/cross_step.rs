@@ -52,6 +52,47 @@ pub fn connected(c: &Coordinator) -> Vec<(LinkKind, RobotId, RobotId)> {
         .collect()
 }
 
+/// Knob pairs the measured poses of `view` show seated (kind, robot with the knob, robot
+/// with the hole), by the test the simulator and the coordinator use
+/// ([`puzzlebot_params::coupling::Coupling::knob_seated`]) at its own tolerance: a mesh's
+/// formation plans one pair per robot that joins, and neighbours set side by side seat
+/// further knobs that carry load all the same. A knob the test misses only makes the
+/// gate's picture weaker.
+pub fn seated_knobs(view: &FleetView, params: &FleetParams) -> Vec<(LinkKind, RobotId, RobotId)> {
+    use puzzlebot_assembly::pair::{is_inserted, measure};
+    use puzzlebot_assembly::{ConnPoint, PairTolerances, Pose};
+    let g = &params.non_pilot.geometry;
+    let tol = PairTolerances::from_params(g, &params.non_pilot.coupling);
+    let poses: Vec<(RobotId, Pose)> = view
+        .robots
+        .iter()
+        .filter_map(|r| r.pose.map(|p| (r.id, Pose::new(p.x, p.y, p.theta))))
+        .collect();
+    let reach = 2.0 * f64::from(g.length.max(g.width));
+    let mut out = Vec::new();
+    for (a, pa) in &poses {
+        for (b, pb) in &poses {
+            if a == b || (pa.x - pb.x).hypot(pa.y - pb.y) > reach {
+                continue;
+            }
+            let seated = [ConnPoint::LeftFront, ConnPoint::LeftBack]
+                .iter()
+                .any(|&ka| {
+                    [ConnPoint::RightFront, ConnPoint::RightBack]
+                        .iter()
+                        .any(|&hb| {
+                            let m = measure(pa, ka, pb, hb, 0.0, g);
+                            is_inserted(PairType::KnobHole, &m, &tol, g, 1.0)
+                        })
+                });
+            if seated {
+                out.push((LinkKind::Knob, *a, *b));
+            }
+        }
+    }
+    out
+}
+
 /// The crossing of the assembly of `view` held by `links` over `terrain`, from where it
 /// stands along its heading; the host's crossing behaviour when the gate proves it all,
 /// otherwise why not, with the number that failed and the heading that would cross, if any.
@@ -178,4 +219,67 @@ pub fn terrain_of<'a>(
     terrains
         .get(file)
         .ok_or_else(|| format!("terrain {} was not loaded", file.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::RobotView;
+    use crate::drive::PoseSample;
+    use puzzlebot_params::formation::{self, Shape};
+
+    #[test]
+    fn the_knobs_a_mesh_layout_seats_are_read_from_its_poses() {
+        let p = FleetParams::default();
+        let mesh = Shape::Mesh {
+            rows: 2,
+            per_row: 2,
+        };
+        let (at, links) = formation::layout(mesh, &p.non_pilot.geometry);
+        for heading in [0.0_f64, 0.7, -2.0] {
+            let (s, c) = heading.sin_cos();
+            let view = FleetView {
+                t: 0.0,
+                robots: at
+                    .iter()
+                    .enumerate()
+                    .map(|(k, o)| RobotView {
+                        id: k as RobotId + 1,
+                        kind: RobotKind::NonPilot,
+                        pose: Some(PoseSample {
+                            t: 0.0,
+                            x: 0.3 + c * o[0] - s * o[1],
+                            y: -0.2 + s * o[0] + c * o[1],
+                            theta: heading,
+                        }),
+                        velocity: None,
+                    })
+                    .collect(),
+                latency_s: 0.0,
+            };
+            let mut got: Vec<(RobotId, RobotId)> = seated_knobs(&view, &p)
+                .into_iter()
+                .map(|k| {
+                    assert_eq!(k.0, LinkKind::Knob);
+                    (k.1, k.2)
+                })
+                .collect();
+            got.sort_unstable();
+            let mut want: Vec<(RobotId, RobotId)> = links
+                .iter()
+                .filter(|l| l.0 == formation::Link::Knob)
+                .map(|l| (l.1 as RobotId + 1, l.2 as RobotId + 1))
+                .collect();
+            want.sort_unstable();
+            assert_eq!(got, want, "at {heading} rad");
+            // Set apart by a centimetre sideways, no knob is seated.
+            let mut apart = view.clone();
+            for r in apart.robots.iter_mut().filter(|r| r.id > 2) {
+                let q = r.pose.as_mut().unwrap();
+                q.x -= s * 0.01;
+                q.y += c * 0.01;
+            }
+            assert!(seated_knobs(&apart, &p).is_empty());
+        }
+    }
 }

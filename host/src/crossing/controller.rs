@@ -375,3 +375,146 @@ pub fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
     let fwd = c * (b.x - a.x) + s * (b.y - a.y);
     [fwd.clamp(-side, side), 0.5 * f64::from(g.width)]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::RobotView;
+    use crate::drive::PoseSample;
+    use puzzlebot_params::formation::{self, Shape};
+    use puzzlebot_stability::crossing::plan_formed;
+
+    /// Robots 1 (pilot) and 2 in a line of two, coupled by an anchor, and its plan over a
+    /// 40 mm gap at 0° (crossing or not: the drive is what is tested).
+    fn line_of_two() -> (CrossingController, Terrain, Candidate) {
+        let p = FleetParams::default();
+        let terrain = Terrain {
+            platforms: vec![
+                puzzlebot_params::terrain::Platform::rect("near", [-1.0, -0.5], [0.0, 0.5], 0.0),
+                puzzlebot_params::terrain::Platform::rect("far", [0.04, -0.5], [1.0, 0.5], 0.0),
+            ],
+        };
+        let s = CrossSettings::default();
+        let opt = CrossingOptions {
+            headings: vec![0.0],
+            ..crossing_options(&s, &p)
+        };
+        let links = formation::layout(Shape::Line(2), &p.non_pilot.geometry).1;
+        let plan =
+            plan_formed(&terrain, &p, Shape::Line(2), &[0], &links, &opt).unwrap()[0].clone();
+        let c = CrossingController::new(
+            plan.clone(),
+            terrain.clone(),
+            p,
+            s,
+            vec![1, 2],
+            vec![(LinkKind::Anchor, 1, 2)],
+        );
+        (c, terrain, plan)
+    }
+
+    fn view(t: f64, robots: &[(RobotId, RobotKind, Option<[f64; 3]>)]) -> FleetView {
+        FleetView {
+            t,
+            robots: robots
+                .iter()
+                .map(|&(id, kind, p)| RobotView {
+                    id,
+                    kind,
+                    pose: p.map(|[x, y, theta]| PoseSample { t, x, y, theta }),
+                    velocity: None,
+                })
+                .collect(),
+            latency_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn pilots_drive_straight_non_pilots_steer_back_and_bystanders_stand() {
+        let (mut c, _, plan) = line_of_two();
+        let (x1, x2) = (plan.start[0], plan.start[0] - 0.05);
+        let at = |t: f64, dx: f64| {
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x1 + dx, 0.0, 0.1])),
+                    (2, RobotKind::NonPilot, Some([x2 + dx, 0.0, 0.1])),
+                    (9, RobotKind::NonPilot, Some([-0.5, 0.3, 0.0])),
+                ],
+            )
+        };
+        let first = c.update(&at(0.0, 0.0));
+        let speed = CrossSettings::default().speed;
+        assert_eq!(first[&1], Twist::new(speed, 0.0));
+        assert_eq!(first[&2], Twist::new(speed, 0.0));
+        let next = c.update(&at(0.5, 0.002));
+        assert!((c.progress().advance - 0.002).abs() < 1e-12);
+        assert_eq!(next[&1].omega, 0.0, "a pilot drives straight only");
+        assert!(next[&2].omega < 0.0, "turns back to 0°: {:?}", next[&2]);
+        assert_eq!(next[&9], Twist::new(0.0, 0.0), "not in the assembly");
+        assert!(!c.stopped());
+    }
+
+    #[test]
+    fn a_robot_without_a_pose_stops_the_crossing() {
+        let (mut c, _, plan) = line_of_two();
+        let x = plan.start[0];
+        c.update(&view(
+            0.0,
+            &[
+                (1, RobotKind::Pilot, Some([x, 0.0, 0.0])),
+                (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, 0.0])),
+            ],
+        ));
+        let out = c.update(&view(
+            0.1,
+            &[
+                (1, RobotKind::Pilot, Some([x, 0.0, 0.0])),
+                (2, RobotKind::NonPilot, None),
+            ],
+        ));
+        assert!(matches!(
+            c.progress().stopped,
+            Some((_, _, CrossStop::PoseLost(2)))
+        ));
+        assert!(out.values().all(|t| *t == Twist::new(0.0, 0.0)));
+        assert!(c.done(0.1));
+    }
+
+    #[test]
+    fn the_gate_stops_an_assembly_it_cannot_prove_and_a_bridged_stretch_is_held() {
+        let (mut c, _, mut plan) = line_of_two();
+        let x = plan.start[0];
+        let two = |t: f64, dx: f64| {
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x + dx, 0.0, 0.0])),
+                    (2, RobotKind::NonPilot, Some([x - 0.05 + dx, 0.0, 0.0])),
+                ],
+            )
+        };
+        // Set down with the back robot's centre over the gap: no support holds it.
+        c.update(&two(0.0, 0.0));
+        c.update(&two(0.1, 0.1));
+        match &c.progress().stopped {
+            Some((_, _, CrossStop::Gate(_))) => {}
+            other => panic!("{other:?}"),
+        }
+        // A stretch proven only at speed: no check stops the drive there, and the robots are
+        // asked to keep driving through it if the link falls silent.
+        plan.advance.bridged = vec![[0.0, 0.2]];
+        let mut c = CrossingController::new(
+            plan,
+            line_of_two().1,
+            FleetParams::default(),
+            CrossSettings::default(),
+            vec![1, 2],
+            vec![(LinkKind::Anchor, 1, 2)],
+        );
+        c.update(&two(0.0, 0.0));
+        c.update(&two(0.1, 0.1));
+        assert!(!c.stopped(), "{:?}", c.progress());
+        assert!(c.hold_ms(1) > 0);
+    }
+}

@@ -443,3 +443,53 @@ fn runner_fails_a_step_on_timeout() {
     }
     assert!(matches!(r.state(), RunState::Failed { index: 0, .. }));
 }
+
+#[test]
+fn a_cross_step_waits_for_the_hosts_result_and_finishes_or_fails_by_it() {
+    let text =
+        "[[step]]\ncross = { terrain = \"gap.toml\" }\n[[step]]\nhold = { duration_s = 0.2 }\n";
+    let s = parse(text).unwrap();
+    // The terrain file is resolved against the scenario's folder.
+    assert_eq!(
+        s.steps[0].behaviour,
+        Behaviour::Cross {
+            terrain: Path::new("gap.toml").to_path_buf()
+        }
+    );
+    let e = err("[[step]]\ncross = { terrain = \"gap.toml\", speed = 1 }\n");
+    assert!(e.contains("speed"), "{e}");
+    let robots = two_at(0.05, 0.0);
+    for result in [
+        Ok(()),
+        Err("the gate proves 12 mm of the 86 mm".to_string()),
+    ] {
+        let mut r = ScenarioRunner::new(
+            s.clone(),
+            Coordinator::from_params(&puzzlebot_params::FleetParams::default()),
+        );
+        // Before the step starts nothing is due; once it runs the coordinator holds until
+        // the host reports.
+        assert_eq!(r.crossing_due(), None);
+        let mut t = 0.0;
+        for _ in 0..20 {
+            r.tick(t, &robots);
+            t += 0.1;
+        }
+        assert_eq!(r.state(), &RunState::Running { index: 0 });
+        assert_eq!(r.crossing_due(), Some(Path::new("gap.toml")));
+        assert_eq!(r.coordinator().mode(), &Mode::Hold);
+        r.finish_crossing(result.clone());
+        assert_eq!(r.crossing_due(), None);
+        for _ in 0..10 {
+            r.tick(t, &robots);
+            t += 0.1;
+        }
+        match result {
+            Ok(()) => assert_eq!(r.state(), &RunState::Finished),
+            Err(why) => match r.state() {
+                RunState::Failed { index: 0, reason } => assert!(reason.contains(&why)),
+                other => panic!("{other:?}"),
+            },
+        }
+    }
+}
