@@ -268,8 +268,11 @@ impl AssemblyController {
         }
         let c = self.crossing.as_mut()?;
         let out = c.update(view);
+        if !c.done(view.t) {
+            return Some(out);
+        }
         if let Some((_, advance, stop)) = &c.progress().stopped {
-            let result = cross_step::result(stop, *advance);
+            let result = cross_step::result(stop, *advance, c.progress().backed_off_to);
             self.crossings.push(c.progress().clone());
             self.crossing = None;
             self.runner.finish_crossing(result);

@@ -161,10 +161,15 @@ pub fn start(
             .map_or("at no heading of the planner's".to_string(), |b| {
                 format!("at {:.0}° from the crossing direction", b.heading_deg)
             });
+        // Whole degrees, without a sign on 0.
+        let heading_deg = match heading.to_degrees().round() {
+            d if d.abs() < 0.5 => 0.0,
+            d => d,
+        };
         return Err(format!(
             "refused: along its heading ({:.0}° from the crossing direction) the gate proves \
              {:.0} mm of the {:.0} mm the {} needs ({:?}); it proves the crossing {better}",
-            heading.to_degrees(),
+            heading_deg,
             here.advance.distance * 1e3,
             here.required * 1e3,
             formed.shape.name(),
@@ -192,13 +197,17 @@ pub fn start(
     ))
 }
 
-/// The step's result from how the crossing behaviour stopped.
-pub fn result(stop: &CrossStop, advance: f64) -> Result<(), String> {
+/// The step's result from how the crossing behaviour stopped (and where it backed off to).
+pub fn result(stop: &CrossStop, advance: f64, backed_off_to: Option<f64>) -> Result<(), String> {
     match stop {
         CrossStop::Reached => Ok(()),
         CrossStop::Gate(why) => Err(format!(
-            "stopped by the gate at {:.0} mm: {why}",
-            advance * 1e3
+            "stopped by the gate at {:.0} mm: {why}{}",
+            advance * 1e3,
+            backed_off_to.map_or(String::new(), |d| format!(
+                "; backed off to the start ({:.0} mm from it)",
+                d.abs() * 1e3
+            ))
         )),
         CrossStop::PoseLost(id) => Err(format!(
             "stopped at {:.0} mm: no pose of robot {id}",

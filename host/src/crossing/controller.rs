@@ -48,6 +48,8 @@ pub struct CrossProgress {
     pub started_s: Option<f64>,
     /// Host time and advance it stopped at, and why.
     pub stopped: Option<(f64, f64, CrossStop)>,
+    /// After a gate stop: the advance it backed off to, once back where it started (m).
+    pub backed_off_to: Option<f64>,
 }
 
 /// The crossing behaviour (see the module doc).
@@ -67,6 +69,8 @@ pub struct CrossingController {
     next_check: f64,
     /// Hold of the latest commands (ms).
     hold: u16,
+    /// Backing off to the start after a gate stop, since this host time (s).
+    backing_since: Option<f64>,
     /// How often the host calls it (Hz).
     rate_hz: f64,
     progress: CrossProgress,
@@ -95,12 +99,14 @@ impl CrossingController {
             start: Vec::new(),
             next_check: 0.0,
             hold: 0,
+            backing_since: None,
             rate_hz: 100.0,
             progress: CrossProgress {
                 advance: 0.0,
                 gate_checks: 0,
                 started_s: None,
                 stopped: None,
+                backed_off_to: None,
             },
         }
     }
@@ -134,6 +140,11 @@ impl CrossingController {
         self.progress.stopped.is_some()
     }
 
+    /// It is backing off to the start after a gate stop.
+    pub fn backing(&self) -> bool {
+        self.backing_since.is_some()
+    }
+
     /// Advance of the robots of `view` since the drive started, along the heading (m): the
     /// mean over the robots with a pose (0 before the start).
     pub fn advance(&self, view: &FleetView) -> f64 {
@@ -165,13 +176,7 @@ impl CrossingController {
     /// widened stretch `d` lies in, if any. No check stops the drive there: stopping is
     /// what would tip the assembly.
     fn stretch_end(&self, d: f64) -> Option<f64> {
-        let travel = f64::from(self.params.non_pilot.coupling.anchor_travel);
-        let anchors = self
-            .links
-            .iter()
-            .filter(|l| l.0 == LinkKind::Anchor)
-            .count();
-        let slack = self.settings.gate_every + 0.5 * travel * anchors as f64;
+        let slack = self.slack();
         self.plan
             .advance
             .bridged
@@ -179,6 +184,18 @@ impl CrossingController {
             .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
             .map(|b| b[1] + slack)
             .reduce(f64::max)
+    }
+
+    /// How far the measured advance may lie from the plan's rigid translation (m): a
+    /// check's spacing, and half the travel of every anchor sliding in its opening.
+    fn slack(&self) -> f64 {
+        let travel = f64::from(self.params.non_pilot.coupling.anchor_travel);
+        let anchors = self
+            .links
+            .iter()
+            .filter(|l| l.0 == LinkKind::Anchor)
+            .count();
+        self.settings.gate_every + 0.5 * travel * anchors as f64
     }
 
     /// How long the drive needs to leave the stretch `d` lies in (ms; 0 outside one).
@@ -192,18 +209,56 @@ impl CrossingController {
 
     fn stop(&mut self, t: f64, why: CrossStop) {
         self.hold = 0;
+        if self.settings.back_off && matches!(why, CrossStop::Gate(_)) {
+            self.backing_since = Some(t);
+        }
         self.progress.stopped = Some((t, self.progress.advance, why));
     }
 
-    /// Twists of every robot of `view`: stopped, or at the crossing speed with each
+    /// Backing off after a gate stop: back along the heading over the advances the gate
+    /// checked on the way in, to where the drive started (no checks: those states were
+    /// proven, and standing where the gate stopped it is proven no better), holding through
+    /// the stretches proven only at speed. Done at the start or after twice the time the
+    /// way back takes at speed and two seconds.
+    fn back_off(&mut self, view: &FleetView, since: f64) -> BTreeMap<RobotId, Twist> {
+        let d = self.advance(view);
+        self.progress.advance = d;
+        let from = self.progress.stopped.as_ref().map_or(d, |s| s.1);
+        let limit = 2.0 * from.max(0.0) / self.settings.speed + 2.0;
+        if d <= 0.0 || view.t - since >= limit {
+            self.backing_since = None;
+            self.hold = 0;
+            self.progress.backed_off_to = Some(d);
+            return self.twists(view, false, 0.0);
+        }
+        // Time to leave a stretch backwards: to its start.
+        let period = (1e6 / self.rate_hz()).round() * 1e-6;
+        let ahead = d - self.settings.speed * period;
+        let slack = self.slack();
+        self.hold = if self.settings.hold_through_stretches {
+            self.plan
+                .advance
+                .bridged
+                .iter()
+                .filter(|b| ahead >= b[0] - slack && ahead <= b[1] + slack)
+                .map(|b| ((ahead - (b[0] - slack)) / self.settings.speed * 1e3).ceil())
+                .fold(0.0, f64::max)
+                .min(f64::from(u16::MAX)) as u16
+        } else {
+            0
+        };
+        self.twists(view, self.settings.heading_gain > 0.0, -self.settings.speed)
+    }
+
+    /// Twists of every robot of `view` at `speed` along the heading (0: standing) with each
     /// non-pilot steered back to the heading (pilots drive straight only, THESIS 5.4.1).
-    fn twists(&self, view: &FleetView, steer: bool) -> BTreeMap<RobotId, Twist> {
+    fn twists(&self, view: &FleetView, steer: bool, speed: f64) -> BTreeMap<RobotId, Twist> {
         let heading = self.heading();
         view.robots
             .iter()
             .map(|r| {
                 let member = self.members.contains(&r.id);
-                let t = match (self.stopped() || !member, r.pose) {
+                let t = match (speed == 0.0 || !member, r.pose) {
                     (true, _) | (false, None) => Twist::new(0.0, 0.0),
                     (false, Some(p)) => {
                         let e = heading - p.theta;
@@ -212,7 +267,7 @@ impl CrossingController {
                         } else {
                             0.0
                         };
-                        Twist::new(self.settings.speed, turn)
+                        Twist::new(speed, turn)
                     }
                 };
                 (r.id, t)
@@ -231,8 +286,20 @@ impl Controller for CrossingController {
     }
 
     fn update(&mut self, view: &FleetView) -> BTreeMap<RobotId, Twist> {
+        if let Some(since) = self.backing_since {
+            if view
+                .robots
+                .iter()
+                .all(|r| r.pose.is_some() || !self.members.contains(&r.id))
+            {
+                return self.back_off(view, since);
+            }
+            // A robot without a pose: the back-off ends where it is.
+            self.backing_since = None;
+            self.hold = 0;
+        }
         if self.stopped() {
-            return self.twists(view, false);
+            return self.twists(view, false, 0.0);
         }
         let lost = self
             .members
@@ -240,7 +307,7 @@ impl Controller for CrossingController {
             .find(|id| !view.robots.iter().any(|r| r.id == **id && r.pose.is_some()));
         if let Some(&id) = lost {
             self.stop(view.t, CrossStop::PoseLost(id));
-            return self.twists(view, false);
+            return self.twists(view, false, 0.0);
         }
         let Some(t0) = self.progress.started_s else {
             // The first update sets the start: the drive starts from rest with equal wheel
@@ -252,17 +319,17 @@ impl Controller for CrossingController {
                 .filter_map(|r| r.pose.map(|p| (r.id, [p.x, p.y])))
                 .collect();
             self.progress.started_s = Some(view.t);
-            return self.twists(view, false);
+            return self.twists(view, false, self.settings.speed);
         };
         let d = self.advance(view);
         self.progress.advance = d;
         if d >= self.goal() {
             self.stop(view.t, CrossStop::Reached);
-            return self.twists(view, false);
+            return self.twists(view, false, 0.0);
         }
         if view.t - t0 >= self.time_limit_s() {
             self.stop(view.t, CrossStop::TimedOut);
-            return self.twists(view, false);
+            return self.twists(view, false, 0.0);
         }
         // Looking one host period ahead: the hold must already run when the link fails.
         self.hold = if self.settings.hold_through_stretches {
@@ -299,15 +366,15 @@ impl Controller for CrossingController {
             );
             if let Some(why) = verdict {
                 self.stop(view.t, CrossStop::Gate(why));
-                return self.twists(view, false);
+                return self.twists(view, false, 0.0);
             }
             self.next_check = d + self.settings.gate_every;
         }
-        self.twists(view, self.settings.heading_gain > 0.0)
+        self.twists(view, self.settings.heading_gain > 0.0, self.settings.speed)
     }
 
     fn done(&self, _t: f64) -> bool {
-        self.stopped()
+        self.stopped() && self.backing_since.is_none()
     }
 
     /// Coupled robots move as the assembly does: no velocity stabiliser.
@@ -501,6 +568,16 @@ mod tests {
             Some((_, _, CrossStop::Gate(_))) => {}
             other => panic!("{other:?}"),
         }
+        // It backs off over the advances checked on the way in, to the start.
+        assert!(!c.done(0.1) && c.backing());
+        let back = c.update(&two(0.2, 0.05));
+        assert!(back[&1].v < 0.0 && back[&1].omega == 0.0, "{back:?}");
+        assert!(back[&2].v < 0.0);
+        let end = c.update(&two(0.3, -0.001));
+        assert!(end.values().all(|t| t.v == 0.0));
+        assert!(c.done(0.3));
+        let to = c.progress().backed_off_to.expect("backed off");
+        assert!((to + 0.001).abs() < 1e-12, "{to}");
         // A stretch proven only at speed: no check stops the drive there, and the robots are
         // asked to keep driving through it if the link falls silent.
         plan.advance.bridged = vec![[0.0, 0.2]];

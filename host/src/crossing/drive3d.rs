@@ -37,6 +37,9 @@ pub struct CrossSettings {
     /// Stop at the first fall or opened connector (the host's crossing); experiments drive
     /// on to count the robots that still reach the far platform.
     pub stop_on_failure: bool,
+    /// After a gate stop, back off to where the crossing started
+    /// ([`super::controller::CrossingController`]) rather than stand astride the gap.
+    pub back_off: bool,
     /// Through a stretch the plan proves only at speed, ask the robots to keep driving when
     /// the link falls silent ([`puzzlebot_protocol::HostMsg::WheelSpeedHold`]) until past
     /// it: there the firmware's failsafe stop would tip the assembly.
@@ -140,6 +143,7 @@ impl CrossSettings {
             settle_s: 0.5,
             live_gate: true,
             stop_on_failure: true,
+            back_off: true,
             hold_through_stretches: true,
             link_loss_at: None,
             heading_gain: heading_gain(params),
@@ -324,7 +328,9 @@ pub fn cross(
         + 1_000_000;
     let mut lost_us = u64::MAX;
     apply(w, &mut ctl, &view_of(w));
-    while w.time_us() < t_limit && w.time_us().saturating_sub(lost_us) < silence_us {
+    while (w.time_us() < t_limit || ctl.backing())
+        && w.time_us().saturating_sub(lost_us) < silence_us
+    {
         w.run_for(tick_us);
         let view = view_of(w);
         let d = ctl.advance(&view);
@@ -352,7 +358,7 @@ pub fn cross(
         }
         if linked {
             apply(w, &mut ctl, &view);
-            if ctl.stopped() {
+            if ctl.done(view.t) {
                 break;
             }
         }
