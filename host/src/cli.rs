@@ -331,6 +331,31 @@ pub(crate) enum ExperimentCmd {
         #[arg(long)]
         json: bool,
     },
+    /// The scenario cross step from fresh starts: four robots (the pilot set down facing a
+    /// 25 mm gap, three non-pilots scattered behind it) grow a 2 x 2 mesh and cross
+    /// (host/assembly/data/scenarios/cross_gap.toml) in lockstep; counts of crossed, backed
+    /// off after a gate stop, refused, stopped, fallen, not formed.
+    CrossStep {
+        /// Number of starts.
+        #[arg(long, default_value_t = 30)]
+        starts: usize,
+        /// Seed of the first start (start i has seed + i); default: from the clock, printed.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Impairment profile: ideal, lab or harsh (link loss, motion capture, plant
+        /// mismatch as for `experiment assemblies`).
+        #[arg(long, default_value = "ideal")]
+        profile: String,
+        /// The pilot's heading from the crossing direction (degrees).
+        #[arg(long, default_value_t = 50.0)]
+        heading_deg: f64,
+        /// Worker threads (0: one per core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Print the results as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Randomized assembly episodes (fleet size 2-12, line / mesh / custom shapes, 0-2
     /// pilots, scattered starts, a move, half dissolved and dispersed) in the lockstep
     /// simulator: success per bucket with 95 % intervals, formation times, failure taxonomy.

@@ -185,6 +185,43 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
         }
         Cmd::Experiment {
             command:
+                ExperimentCmd::CrossStep {
+                    starts,
+                    seed,
+                    profile,
+                    heading_deg,
+                    threads,
+                    json,
+                },
+        } => {
+            use puzzlebot_host::experiment::{cross_step, episode};
+            if !(heading_deg.is_finite() && heading_deg.abs() < 86.0) {
+                anyhow::bail!("--heading-deg: within ±86°, got {heading_deg}");
+            }
+            let seed = seed.unwrap_or_else(|| {
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(1, |d| d.as_secs())
+            });
+            let opts = cross_step::Options {
+                starts,
+                seed,
+                profile: episode::Profile::parse(&profile)?,
+                heading_deg,
+                threads,
+            };
+            let t0 = std::time::Instant::now();
+            let o = opts.clone();
+            let results = tokio::task::spawn_blocking(move || cross_step::run(&o, &runs)).await??;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&results)?);
+            } else {
+                print!("{}", cross_step::render(&opts, &results));
+                println!("finished in {:.1} s", t0.elapsed().as_secs_f64());
+            }
+        }
+        Cmd::Experiment {
+            command:
                 ExperimentCmd::Assemblies {
                     episodes,
                     profile,

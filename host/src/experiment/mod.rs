@@ -4,6 +4,7 @@
 
 pub mod assemblies;
 pub mod coupling;
+pub mod cross_step;
 pub mod crossing;
 pub mod crossing_regate;
 pub mod crossing_report;

@@ -1,0 +1,258 @@
+//! The scenario `cross` step from fresh starts (`puzzlebot experiment cross-step`): four
+//! robots, the pilot set down facing the gap at a given heading and three non-pilots
+//! scattered behind it, run `host/assembly/data/scenarios/cross_gap.toml` in lockstep (grow a
+//! 2 × 2 mesh on the 2-D plant, cross a 25 mm gap in the 3-D world), each start drawn from
+//! its seed with the impairment profile's link loss, motion capture and plant mismatch.
+//! Counts how many cross, back off after a gate stop, are refused before moving, stop
+//! elsewhere, fall or do not form.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use puzzlebot_assembly::{RunState, Scenario as AsmScenario};
+use puzzlebot_params::terrain::Terrain;
+use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_sim::{Impairments, PlantMismatch, RobotSpec};
+use rand::{Rng, SeedableRng};
+use serde::Serialize;
+
+use super::episode::Profile;
+use super::workers::map_parallel;
+
+/// The scenario every start runs.
+pub fn scenario_file() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assembly/data/scenarios/cross_gap.toml")
+}
+
+/// Where the non-pilots are scattered (m): x from, x to, half the width in y; and the least
+/// distance between two robots' centres (m).
+const AREA: ([f64; 2], f64) = ([-0.6, -0.12], 0.35);
+/// Least distance between two robots' centres at the start (m).
+const SPACING: f64 = 0.12;
+/// The pilot's place (m): 0.35 m before the gap's near edge of `gap25.toml`.
+const PILOT_AT: [f64; 2] = [-0.05, 0.0];
+
+/// The experiment's settings.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Number of starts.
+    pub starts: usize,
+    /// Seed of the first start (start i has seed + i).
+    pub seed: u64,
+    /// Link loss, motion capture and plant mismatch.
+    pub profile: Profile,
+    /// The pilot's heading from the crossing direction (degrees).
+    pub heading_deg: f64,
+    /// Worker threads (0: one per core).
+    pub threads: usize,
+}
+
+/// How one start ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    /// Every robot on the far platform, none fell.
+    Crossed,
+    /// Stopped by the live gate and backed off to its start.
+    BackedOff,
+    /// Refused by the gate before it moved.
+    Refused,
+    /// Stopped otherwise (pose lost, time out) or left short of the far platform.
+    Stopped,
+    /// A robot fell.
+    Fell,
+    /// The mesh did not form.
+    NotFormed,
+}
+
+/// One start's result.
+#[derive(Debug, Clone, Serialize)]
+pub struct StartResult {
+    /// Its seed.
+    pub seed: u64,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// The run's state (why it failed, if it did).
+    pub state: String,
+}
+
+/// The fleet of start `seed`.
+pub fn fleet(seed: u64, heading_deg: f64, profile: Profile) -> puzzlebot_sim::Scenario {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+    let mut poses = vec![[PILOT_AT[0], PILOT_AT[1], heading_deg.to_radians()]];
+    while poses.len() < 4 {
+        let x = rng.random_range(AREA.0[0]..AREA.0[1]);
+        let y = rng.random_range(-AREA.1..AREA.1);
+        if poses.iter().all(|p| (p[0] - x).hypot(p[1] - y) > SPACING) {
+            let yaw = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+            poses.push([x, y, yaw]);
+        }
+    }
+    let imp = profile.impairment();
+    let m = imp.mismatch;
+    let robots = poses
+        .iter()
+        .enumerate()
+        .map(|(k, &pose)| {
+            let mut f = || {
+                if m > 0.0 {
+                    rng.random_range(1.0 - m..=1.0 + m)
+                } else {
+                    1.0
+                }
+            };
+            RobotSpec {
+                id: k as u16 + 1,
+                kind: if k == 0 {
+                    RobotKind::Pilot
+                } else {
+                    RobotKind::NonPilot
+                },
+                pose,
+                impairments: None,
+                offline: false,
+                mismatch: PlantMismatch {
+                    motor_gain: f(),
+                    dead_band: f(),
+                    wheel_radius: f(),
+                },
+            }
+        })
+        .collect();
+    puzzlebot_sim::Scenario {
+        seed,
+        robots,
+        impairments: Impairments {
+            loss: imp.loss,
+            ..Impairments::NONE
+        },
+        mocap: imp.mocap(),
+        ..puzzlebot_sim::Scenario::default()
+    }
+}
+
+/// Run every start; the scenario's run folders go to a temporary folder under `runs_dir`
+/// and are removed.
+pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> {
+    let g = FleetParams::default().non_pilot.geometry;
+    let file = scenario_file();
+    let scenario = AsmScenario::from_file(&file, &g)?;
+    let terrain_file = scenario
+        .steps
+        .iter()
+        .find_map(|s| match &s.behaviour {
+            puzzlebot_assembly::scenario::Behaviour::Cross { terrain } => Some(terrain.clone()),
+            _ => None,
+        })
+        .context("the scenario has no cross step")?;
+    let terrain = puzzlebot_stability::crossing::load_terrain(&terrain_file)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let seeds: Vec<u64> = (0..opts.starts as u64).map(|i| opts.seed + i).collect();
+    let bar = indicatif::ProgressBar::new(seeds.len() as u64);
+    let tmp = runs_dir.join(format!(".cross-step-{}", std::process::id()));
+    let results = map_parallel(
+        &seeds,
+        opts.threads,
+        &|&seed| {
+            let sim = fleet(seed, opts.heading_deg, opts.profile);
+            let dir = tmp.join(seed.to_string());
+            let r = crate::assemble::run_scenario_lockstep(scenario.clone(), sim, &dir, 300.0);
+            std::fs::remove_dir_all(&dir).ok();
+            r.map(|r| classify(seed, &r, &terrain))
+                .map_err(|e| format!("seed {seed}: {e:#}"))
+        },
+        &|| bar.inc(1),
+    );
+    bar.finish_and_clear();
+    std::fs::remove_dir_all(&tmp).ok();
+    results
+        .into_iter()
+        .collect::<Result<Vec<_>, String>>()
+        .map_err(|e| anyhow::anyhow!(e))
+}
+
+/// How the run `r` of start `seed` ended over `terrain`.
+fn classify(seed: u64, r: &crate::assemble::AssemblyReport, terrain: &Terrain) -> StartResult {
+    let under = |p: &[f64; 3]| {
+        terrain
+            .platforms
+            .iter()
+            .position(|pl| pl.contains([p[0], p[1]]))
+    };
+    let start = under(&[PILOT_AT[0], PILOT_AT[1], 0.0]);
+    let across = r
+        .final_poses
+        .values()
+        .all(|p| under(p).is_some_and(|i| Some(i) != start));
+    let (outcome, state) = match &r.state {
+        _ if !r.fallen.is_empty() => (Outcome::Fell, format!("{:?}", r.state)),
+        RunState::Finished if across => (Outcome::Crossed, "finished".into()),
+        RunState::Failed { index, reason } if *index < 2 => (Outcome::NotFormed, reason.clone()),
+        RunState::Failed { reason, .. } if reason.contains("refused") => {
+            (Outcome::Refused, reason.clone())
+        }
+        RunState::Failed { reason, .. } if reason.contains("backed off") => {
+            (Outcome::BackedOff, reason.clone())
+        }
+        other => (Outcome::Stopped, format!("{other:?}")),
+    };
+    StartResult {
+        seed,
+        outcome,
+        state,
+    }
+}
+
+/// The counts per outcome, and every start that did not cross.
+pub fn render(opts: &Options, results: &[StartResult]) -> String {
+    let mut counts: BTreeMap<Outcome, usize> = BTreeMap::new();
+    for r in results {
+        *counts.entry(r.outcome).or_default() += 1;
+    }
+    let mut s = format!(
+        "cross step: {} starts from seed {}, profile {}, pilot at {}°\n",
+        results.len(),
+        opts.seed,
+        opts.profile.name(),
+        opts.heading_deg
+    );
+    for (o, n) in &counts {
+        s += &format!("  {:<11} {n}\n", format!("{o:?}"));
+    }
+    for r in results.iter().filter(|r| r.outcome != Outcome::Crossed) {
+        s += &format!("  seed {}: {:?}: {}\n", r.seed, r.outcome, r.state);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_start_is_drawn_from_its_seed_with_the_pilot_facing_the_gap() {
+        let a = fleet(7, 50.0, Profile::Lab);
+        assert_eq!(a.robots.len(), 4);
+        assert_eq!(a.robots[0].kind, RobotKind::Pilot);
+        assert!((a.robots[0].pose[2] - 50f64.to_radians()).abs() < 1e-12);
+        for (i, r) in a.robots.iter().enumerate() {
+            for q in &a.robots[i + 1..] {
+                let d = (r.pose[0] - q.pose[0]).hypot(r.pose[1] - q.pose[1]);
+                assert!(d > SPACING, "{d}");
+            }
+            let m = r.mismatch.motor_gain;
+            assert!((0.9..=1.1).contains(&m) && m != 1.0, "{m}");
+        }
+        let b = fleet(7, 50.0, Profile::Lab);
+        assert_eq!(
+            a.robots.iter().map(|r| r.pose).collect::<Vec<_>>(),
+            b.robots.iter().map(|r| r.pose).collect::<Vec<_>>()
+        );
+        assert_ne!(a.robots[1].pose, fleet(8, 50.0, Profile::Lab).robots[1].pose);
+        assert_eq!(
+            fleet(7, 50.0, Profile::Ideal).robots[1].mismatch,
+            PlantMismatch::NONE
+        );
+    }
+}
