@@ -41,7 +41,14 @@ pub fn from_toml_str<T: serde::de::DeserializeOwned>(
     text: &str,
 ) -> Result<T, LoadError> {
     toml::from_str(text).map_err(|e| {
-        let (line, column) = e.span().map(|s| line_col(text, s.start)).unwrap_or((1, 1));
+        // An error raised above the field that is wrong (a kind's table laid over its
+        // defaults) has no span of its own: the keys its message names give one.
+        let (line, column) = e
+            .span()
+            .filter(|s| s.start > 0)
+            .map(|s| line_col(text, s.start))
+            .or_else(|| locate(text, e.message()))
+            .unwrap_or((1, 1));
         LoadError::Parse {
             path: path.to_path_buf(),
             line,
@@ -58,6 +65,32 @@ pub fn from_toml_file<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, 
         cause,
     })?;
     from_toml_str(path, &text)
+}
+
+/// Where an error `message` that names keys (`pilot: coupling: unknown field `knob_hold``)
+/// points in `text`: the deepest key it names that the text has, as line and column.
+fn locate(text: &str, message: &str) -> Option<(usize, usize)> {
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    let mut table = doc.as_table();
+    let mut at = None;
+    let mut rest = message;
+    while let Some((head, tail)) = rest.split_once(": ") {
+        let Some(key) = table.key(head.trim()) else {
+            break;
+        };
+        at = key.span().or(at);
+        rest = tail;
+        match table.get(head.trim()).and_then(|i| i.as_table()) {
+            Some(t) => table = t,
+            None => break,
+        }
+    }
+    // A field the rest names in backquotes (`unknown field `x``, `missing field `x``).
+    let field = rest.split('`').nth(1);
+    if let Some(span) = field.and_then(|f| table.key(f)).and_then(|k| k.span()) {
+        at = Some(span);
+    }
+    at.map(|s| line_col(text, s.start))
 }
 
 fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -92,12 +125,19 @@ impl crate::RobotParams {
     /// Load one robot's parameters from a TOML file, missing fields keeping the defaults of
     /// a robot of `kind`.
     pub fn from_file_for(kind: crate::RobotKind, path: &Path) -> Result<Self, LoadError> {
-        let table: toml::Table = from_toml_file(path)?;
-        crate::kind_defaults::robot_over_defaults(kind, table).map_err(|message| LoadError::Parse {
+        let text = std::fs::read_to_string(path).map_err(|cause| LoadError::Io {
             path: path.to_path_buf(),
-            line: 1,
-            column: 1,
-            message,
+            cause,
+        })?;
+        let table: toml::Table = from_toml_str(path, &text)?;
+        crate::kind_defaults::robot_over_defaults(kind, table).map_err(|message| {
+            let (line, column) = locate(&text, &message).unwrap_or((1, 1));
+            LoadError::Parse {
+                path: path.to_path_buf(),
+                line,
+                column,
+                message,
+            }
         })
     }
 }
@@ -121,6 +161,33 @@ mod tests {
         );
         assert_eq!(p.rates.mpc_hz, 20.0);
         assert_eq!(p.non_pilot, FleetParams::default().non_pilot);
+    }
+
+    #[test]
+    fn an_error_inside_a_kinds_table_names_its_line() {
+        let err = from_toml_str::<FleetParams>(
+            Path::new("fleet.toml"),
+            "[rates]\nmpc_hz = 10.0\n\n[pilot.coupling]\nknob_hold_force = 6.4\nknob_hold = 1.0\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.starts_with("fleet.toml:6:1: pilot: coupling: unknown field `knob_hold`"),
+            "{err}"
+        );
+        let dir = std::env::temp_dir().join(format!("pb-params-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("pilot.toml");
+        std::fs::write(
+            &f,
+            "[drive]\nk_v = 0.003\n[coupling]\nknob_hold_force = \"x\"\n",
+        )
+        .unwrap();
+        let err = crate::RobotParams::from_file_for(crate::RobotKind::Pilot, &f)
+            .unwrap_err()
+            .to_string();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(err.contains("pilot.toml:3:"), "{err}");
     }
 
     #[test]

@@ -249,7 +249,10 @@ mod tests {
             a.robots.iter().map(|r| r.pose).collect::<Vec<_>>(),
             b.robots.iter().map(|r| r.pose).collect::<Vec<_>>()
         );
-        assert_ne!(a.robots[1].pose, fleet(8, 50.0, Profile::Lab).robots[1].pose);
+        assert_ne!(
+            a.robots[1].pose,
+            fleet(8, 50.0, Profile::Lab).robots[1].pose
+        );
         assert_eq!(
             fleet(7, 50.0, Profile::Ideal).robots[1].mismatch,
             PlantMismatch::NONE
