@@ -183,3 +183,133 @@ fn a_separate_simulator_process_forms_and_drives_a_line_through_run_fleet() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A pilot and a non-pilot set down one behind the other, 20° to a 10 mm gap whose near edge
+/// is at x = 0.30 m ([`GAP10`]).
+const SIM_AT_GAP: &str = r#"
+seed = 4
+[[robots]]
+id = 1
+kind = "Pilot"
+pose = [0.0, 0.0, 0.349]
+[[robots]]
+id = 2
+kind = "NonPilot"
+pose = [-0.113, -0.03, 0.4]
+"#;
+
+/// Two platforms of equal height 10 mm apart: a lone robot tips in, the line of two with
+/// its pilot in front crosses at 20° (`puzzlebot plan crossing --robots 2 --pilots 1`).
+const GAP10: &str = r#"
+[[platforms]]
+name = "near"
+polygon = [[-1.0, -1.0], [0.30, -1.0], [0.30, 1.0], [-1.0, 1.0]]
+[[platforms]]
+name = "far"
+polygon = [[0.31, -1.0], [1.6, -1.0], [1.6, 1.0], [0.31, 1.0]]
+"#;
+
+/// The cross step over the real link: the host plans the formed line from the poses motion
+/// capture gives it and drives it with the crossing controller through the UDP link. The
+/// simulator process is the flat 2-D plant (no gap), so this checks the host's side: the
+/// plan from measured poses, the drive at the crossing speed to the advance the plan needs.
+#[test]
+fn a_cross_step_runs_over_the_link_through_run_fleet() {
+    let dir = scratch();
+    let o = puzzlebot(&["fleet", "init", "."], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    let cfg = dir.join("fleet.toml");
+    let s = std::fs::read_to_string(&cfg).unwrap();
+    let s = s
+        .replace("127.0.0.1:47800", &format!("127.0.0.1:{}", free_port()))
+        .replace("127.0.0.1:47810", &format!("127.0.0.1:{}", free_port()));
+    std::fs::write(&cfg, s).unwrap();
+    for (id, kind) in [("1", "pilot"), ("2", "non-pilot")] {
+        let o = puzzlebot(&["fleet", "add", "--id", id, "--kind", kind], &dir);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    std::fs::write(dir.join("sim.toml"), SIM_AT_GAP).unwrap();
+    std::fs::write(dir.join("gap10.toml"), GAP10).unwrap();
+    std::fs::write(
+        dir.join("cross.toml"),
+        "name = \"cross2\"\n[[step]]\nform = { shape = \"line\" }\ntimeout_s = 40\n\
+         [[step]]\ncross = { terrain = \"gap10.toml\" }\ntimeout_s = 90\n",
+    )
+    .unwrap();
+    let _sim = Sim(Command::new(BIN)
+        .args(["sim", "--fleet", "fleet.toml", "--scenario", "sim.toml"])
+        .current_dir(&dir)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("puzzlebot sim starts"));
+    let o = puzzlebot(&["fleet", "check", "--seconds", "15"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = puzzlebot(
+        &[
+            "--runs-dir",
+            "runs",
+            "run",
+            "cross.toml",
+            "--fleet",
+            "fleet.toml",
+            "--limit",
+            "120",
+            "--json",
+        ],
+        &dir,
+    );
+    let run = std::fs::read_dir(dir.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .next()
+        .expect("a run folder");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("assembly_report.json")).unwrap())
+            .unwrap();
+    // The host drove the line at the crossing speed through the link, the pilot straight
+    // (THESIS 5.4.1), and stopped it at the end.
+    let speed = puzzlebot_host::crossing::drive3d::CrossSettings::default().speed;
+    let ticks: Vec<serde_json::Value> = std::fs::read_to_string(run.join("telemetry.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let driving = |id: u64| {
+        ticks
+            .iter()
+            .filter(|r| r["robot"] == id)
+            .filter(|r| (r["desired"]["v"].as_f64().unwrap_or(0.0) - speed).abs() < 1e-9)
+            .collect::<Vec<_>>()
+    };
+    let (pilot, other) = (driving(1), driving(2));
+    assert!(
+        pilot.len() > 50 && other.len() > 50,
+        "{} and {} ticks",
+        pilot.len(),
+        other.len()
+    );
+    assert!(pilot.iter().all(|r| r["desired"]["omega"] == 0.0));
+    for id in [1, 2] {
+        let last = ticks.iter().rev().find(|r| r["robot"] == id).unwrap();
+        assert_eq!(last["desired"]["v"].as_f64(), Some(0.0), "{last}");
+    }
+    // Across, or stopped by the host (the flat 2-D plant's line turns under the pilot as no
+    // gap's far platform would let it); never refused, since the plan proves the crossing.
+    if o.status.success() {
+        assert_eq!(report["state"], "finished", "{report}");
+        for id in ["1", "2"] {
+            assert!(
+                report["final_poses"][id][0].as_f64().unwrap() > 0.31,
+                "{report}"
+            );
+        }
+    } else {
+        let why = report["state"]["failed"]["reason"]
+            .as_str()
+            .unwrap_or_default();
+        assert!(why.contains("stopped") && !why.contains("refused"), "{why}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
