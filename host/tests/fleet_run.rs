@@ -76,46 +76,53 @@ fn text(o: &Output) -> String {
     )
 }
 
-fn scratch() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("pb-fleet-run-{}", std::process::id()));
+/// A fresh folder for the test `tag` (tests run in parallel in one process).
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("pb-fleet-run-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }
 
-#[test]
-fn a_separate_simulator_process_forms_and_drives_a_line_through_run_fleet() {
-    let dir = scratch();
-    let o = puzzlebot(&["fleet", "init", "."], &dir);
+/// `puzzlebot fleet init` in `dir` on free loopback ports (parallel tests do not collide),
+/// `fleet add` of `robots` (id, kind), `puzzlebot sim` of `sim` in another process, and
+/// `fleet check` once every robot is online.
+fn start_fleet(dir: &Path, robots: &[(&str, &str)], sim: &str) -> Sim {
+    let o = puzzlebot(&["fleet", "init", "."], dir);
     assert!(o.status.success(), "{}", text(&o));
-    // Free loopback ports instead of the defaults, so parallel tests do not collide.
     let cfg = dir.join("fleet.toml");
     let s = std::fs::read_to_string(&cfg).unwrap();
     let s = s
         .replace("127.0.0.1:47800", &format!("127.0.0.1:{}", free_port()))
         .replace("127.0.0.1:47810", &format!("127.0.0.1:{}", free_port()));
     std::fs::write(&cfg, s).unwrap();
-    for id in ["1", "2", "3", "4"] {
-        let o = puzzlebot(&["fleet", "add", "--id", id, "--kind", "non-pilot"], &dir);
+    for (id, kind) in robots {
+        let o = puzzlebot(&["fleet", "add", "--id", id, "--kind", kind], dir);
         assert!(o.status.success(), "{}", text(&o));
     }
-    std::fs::write(dir.join("sim.toml"), SIM).unwrap();
-    std::fs::write(dir.join("line4.toml"), STEPS).unwrap();
-
-    let _sim = Sim(Command::new(BIN)
+    std::fs::write(dir.join("sim.toml"), sim).unwrap();
+    let child = Sim(Command::new(BIN)
         .args(["sim", "--fleet", "fleet.toml", "--scenario", "sim.toml"])
-        .current_dir(&dir)
+        .current_dir(dir)
         .env("RUST_LOG", "warn")
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .expect("puzzlebot sim starts"));
-
-    let o = puzzlebot(&["fleet", "check", "--seconds", "15"], &dir);
+    let o = puzzlebot(&["fleet", "check", "--seconds", "15"], dir);
     assert!(o.status.success(), "{}", text(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("ready"), "{}", text(&o));
-    assert_eq!(out.matches("online").count(), 4, "{}", text(&o));
+    assert_eq!(out.matches("online").count(), robots.len(), "{}", text(&o));
+    child
+}
+
+#[test]
+fn a_separate_simulator_process_forms_and_drives_a_line_through_run_fleet() {
+    let dir = scratch("line");
+    let robots = ["1", "2", "3", "4"].map(|id| (id, "non-pilot"));
+    let _sim = start_fleet(&dir, &robots, SIM);
+    std::fs::write(dir.join("line4.toml"), STEPS).unwrap();
 
     let o = puzzlebot(
         &[
@@ -215,20 +222,8 @@ polygon = [[0.31, -1.0], [1.6, -1.0], [1.6, 1.0], [0.31, 1.0]]
 /// plan from measured poses, the drive at the crossing speed to the advance the plan needs.
 #[test]
 fn a_cross_step_runs_over_the_link_through_run_fleet() {
-    let dir = scratch();
-    let o = puzzlebot(&["fleet", "init", "."], &dir);
-    assert!(o.status.success(), "{}", text(&o));
-    let cfg = dir.join("fleet.toml");
-    let s = std::fs::read_to_string(&cfg).unwrap();
-    let s = s
-        .replace("127.0.0.1:47800", &format!("127.0.0.1:{}", free_port()))
-        .replace("127.0.0.1:47810", &format!("127.0.0.1:{}", free_port()));
-    std::fs::write(&cfg, s).unwrap();
-    for (id, kind) in [("1", "pilot"), ("2", "non-pilot")] {
-        let o = puzzlebot(&["fleet", "add", "--id", id, "--kind", kind], &dir);
-        assert!(o.status.success(), "{}", text(&o));
-    }
-    std::fs::write(dir.join("sim.toml"), SIM_AT_GAP).unwrap();
+    let dir = scratch("cross");
+    let _sim = start_fleet(&dir, &[("1", "pilot"), ("2", "non-pilot")], SIM_AT_GAP);
     std::fs::write(dir.join("gap10.toml"), GAP10).unwrap();
     std::fs::write(
         dir.join("cross.toml"),
@@ -236,16 +231,6 @@ fn a_cross_step_runs_over_the_link_through_run_fleet() {
          [[step]]\ncross = { terrain = \"gap10.toml\" }\ntimeout_s = 90\n",
     )
     .unwrap();
-    let _sim = Sim(Command::new(BIN)
-        .args(["sim", "--fleet", "fleet.toml", "--scenario", "sim.toml"])
-        .current_dir(&dir)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("puzzlebot sim starts"));
-    let o = puzzlebot(&["fleet", "check", "--seconds", "15"], &dir);
-    assert!(o.status.success(), "{}", text(&o));
     let o = puzzlebot(
         &[
             "--runs-dir",

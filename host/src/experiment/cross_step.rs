@@ -13,11 +13,11 @@ use anyhow::Context;
 use puzzlebot_assembly::{RunState, Scenario as AsmScenario};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
-use puzzlebot_sim::{Impairments, PlantMismatch, RobotSpec};
+use puzzlebot_sim::{Impairments, RobotSpec};
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
 
-use super::episode::Profile;
+use super::episode::{draw_mismatch, Profile};
 use super::workers::map_parallel;
 
 /// The scenario every start runs.
@@ -90,34 +90,20 @@ pub fn fleet(seed: u64, heading_deg: f64, profile: Profile) -> puzzlebot_sim::Sc
         }
     }
     let imp = profile.impairment();
-    let m = imp.mismatch;
     let robots = poses
         .iter()
         .enumerate()
-        .map(|(k, &pose)| {
-            let mut f = || {
-                if m > 0.0 {
-                    rng.random_range(1.0 - m..=1.0 + m)
-                } else {
-                    1.0
-                }
-            };
-            RobotSpec {
-                id: k as u16 + 1,
-                kind: if k == 0 {
-                    RobotKind::Pilot
-                } else {
-                    RobotKind::NonPilot
-                },
-                pose,
-                impairments: None,
-                offline: false,
-                mismatch: PlantMismatch {
-                    motor_gain: f(),
-                    dead_band: f(),
-                    wheel_radius: f(),
-                },
-            }
+        .map(|(k, &pose)| RobotSpec {
+            id: k as u16 + 1,
+            kind: if k == 0 {
+                RobotKind::Pilot
+            } else {
+                RobotKind::NonPilot
+            },
+            pose,
+            impairments: None,
+            offline: false,
+            mismatch: draw_mismatch(&mut rng, imp.mismatch),
         })
         .collect();
     puzzlebot_sim::Scenario {
@@ -229,6 +215,7 @@ pub fn render(opts: &Options, results: &[StartResult]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use puzzlebot_sim::PlantMismatch;
 
     #[test]
     fn a_start_is_drawn_from_its_seed_with_the_pilot_facing_the_gap() {

@@ -130,6 +130,23 @@ impl Impairment {
     }
 }
 
+/// A robot's plant mismatch: motor gain, dead band and wheel radius each off by a factor
+/// drawn uniformly from 1 ± `m` (none for `m` = 0).
+pub fn draw_mismatch(rng: &mut impl Rng, m: f64) -> PlantMismatch {
+    let mut f = || {
+        if m > 0.0 {
+            rng.random_range(1.0 - m..=1.0 + m)
+        } else {
+            1.0
+        }
+    };
+    PlantMismatch {
+        motor_gain: f(),
+        dead_band: f(),
+        wheel_radius: f(),
+    }
+}
+
 /// The shape an episode forms.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "kind")]
@@ -388,20 +405,8 @@ impl Episode {
         };
         s.mocap = imp.mocap();
         let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ MISMATCH_SEED);
-        let m = imp.mismatch;
         for r in &mut s.robots {
-            let mut f = || {
-                if m > 0.0 {
-                    rng.random_range(1.0 - m..=1.0 + m)
-                } else {
-                    1.0
-                }
-            };
-            r.mismatch = PlantMismatch {
-                motor_gain: f(),
-                dead_band: f(),
-                wheel_radius: f(),
-            };
+            r.mismatch = draw_mismatch(&mut rng, imp.mismatch);
         }
         Ok(s)
     }
