@@ -81,6 +81,15 @@ pub enum LinkKind {
     Knob,
 }
 
+impl From<puzzlebot_params::formation::Link> for LinkKind {
+    fn from(l: puzzlebot_params::formation::Link) -> Self {
+        match l {
+            puzzlebot_params::formation::Link::Anchor => LinkKind::Anchor,
+            puzzlebot_params::formation::Link::Knob => LinkKind::Knob,
+        }
+    }
+}
+
 /// Progress of a coupling.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum LinkState {

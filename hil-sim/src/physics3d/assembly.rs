@@ -5,7 +5,7 @@
 use crate::mechanics::LinkKind;
 use crate::rng::Rng;
 use crate::scenario::{CouplingSpec, RobotSpec, Scenario};
-use puzzlebot_params::formation::{self, Link};
+use puzzlebot_params::formation;
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 
@@ -31,13 +31,7 @@ pub fn layout(shape: Shape, p: &FleetParams) -> (formation::Offsets, Vec<LayoutL
     let (at, links) = formation::layout(shape, &p.non_pilot.geometry);
     let links = links
         .into_iter()
-        .map(|(l, a, b)| {
-            let kind = match l {
-                Link::Anchor => LinkKind::Anchor,
-                Link::Knob => LinkKind::Knob,
-            };
-            (kind, a, b)
-        })
+        .map(|(l, a, b)| (LinkKind::from(l), a, b))
         .collect();
     (at, links)
 }

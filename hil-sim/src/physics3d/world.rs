@@ -59,6 +59,8 @@ pub struct RobotState3d {
     pub rpy: [f64; 3],
     /// Forward speed (m/s).
     pub speed: f64,
+    /// Turn rate about the world's vertical (rad/s).
+    pub yaw_rate: f64,
     /// Wheel speeds left, right (RPM, motor-averaged).
     pub wheel_rpm: [f64; 2],
     /// Battery terminal voltage (V).
@@ -408,6 +410,7 @@ impl World3d {
                     position: [iso.translation.x, iso.translation.y, iso.translation.z],
                     rpy: [roll, pitch, yaw],
                     speed: b.linvel().dot(&fwd),
+                    yaw_rate: b.angvel().z,
                     wheel_rpm: [w[0] * rpm, w[1] * rpm],
                     battery_v: r.battery_v,
                     linked: r.onboard.linked(),

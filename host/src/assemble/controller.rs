@@ -245,13 +245,10 @@ impl AssemblyController {
             return Some(BTreeMap::new());
         }
         if self.crossing.is_none() {
-            let mut links = cross_step::connected(self.runner.coordinator());
-            for k in cross_step::seated_knobs(view, &self.params) {
-                if !links.iter().any(|l| l.1 == k.1 && l.2 == k.2) {
-                    links.push(k);
-                }
-            }
-            let started = cross_step::terrain_of(&self.terrains, &file)
+            let links = cross_step::believed_links(self.runner.coordinator(), view, &self.params);
+            let started = self
+                .terrain(&file)
+                .ok_or_else(|| format!("terrain {} was not loaded", file.display()))
                 .and_then(|t| cross_step::start(view, &links, t, &self.params));
             match started {
                 Ok(c) => {

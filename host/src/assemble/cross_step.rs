@@ -5,7 +5,7 @@
 //! behaviour ([`CrossingController`]) until it reports across or why not.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use puzzlebot_assembly::scenario::Behaviour;
 use puzzlebot_assembly::{Coordinator, PairStatus, PairType, Scenario as AsmScenario};
@@ -14,10 +14,10 @@ use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{load_terrain, plan_formed, plan_placed, Candidate};
-use puzzlebot_stability::puzzlebot::{Pair, PairKind, PuzzleAssembly, RobotPose};
+use puzzlebot_stability::puzzlebot::RobotPose;
 
 use crate::control::FleetView;
-use crate::crossing::controller::{knob_point, CrossStop, CrossingController};
+use crate::crossing::controller::{assembly_of, CrossStop, CrossingController};
 use crate::crossing::drive3d::{crossing_options, CrossSettings};
 use crate::crossing::formed::Formed;
 
@@ -36,9 +36,26 @@ pub fn load_terrains(scenario: &AsmScenario) -> anyhow::Result<BTreeMap<PathBuf,
     Ok(out)
 }
 
+/// The couplings the host believes hold (kind, robot with the anchor / knob, robot with the
+/// opening / hole): the pairs the coordinator counts as connected, and every further knob
+/// the measured poses of `view` show seated ([`seated_knobs`]).
+pub fn believed_links(
+    c: &Coordinator,
+    view: &FleetView,
+    params: &FleetParams,
+) -> Vec<(LinkKind, RobotId, RobotId)> {
+    let mut links = connected(c);
+    for k in seated_knobs(view, params) {
+        if !links.iter().any(|l| l.1 == k.1 && l.2 == k.2) {
+            links.push(k);
+        }
+    }
+    links
+}
+
 /// Couplings the coordinator counts as connected (kind, robot with the anchor / knob, robot
 /// with the opening / hole).
-pub fn connected(c: &Coordinator) -> Vec<(LinkKind, RobotId, RobotId)> {
+fn connected(c: &Coordinator) -> Vec<(LinkKind, RobotId, RobotId)> {
     c.pairs()
         .iter()
         .filter(|p| p.status == PairStatus::Connected)
@@ -111,44 +128,32 @@ pub fn start(
     let g = &params.non_pilot.geometry;
     let formed =
         Formed::read(&poses, &kinds, links, g).map_err(|e| format!("the assembly: {e}"))?;
-    let robots: Vec<RobotPose> = formed
+    let members: Vec<(RobotId, RobotPose)> = formed
         .ids
         .iter()
         .zip(&formed.kinds)
-        .map(|(id, &kind)| {
-            let p = poses[id];
-            RobotPose {
+        .map(|(&id, &kind)| {
+            let p = poses[&id];
+            let pose = RobotPose {
                 kind,
                 x: p[0],
                 y: p[1],
                 yaw: p[2],
-            }
+            };
+            (id, pose)
         })
         .collect();
     // The assembly's heading: the mean of its robots' headings.
-    let (s, c) = robots
-        .iter()
-        .fold((0.0, 0.0), |(s, c), r| (s + r.yaw.sin(), c + r.yaw.cos()));
+    let (s, c) = members.iter().fold((0.0, 0.0), |(s, c), m| {
+        (s + m.1.yaw.sin(), c + m.1.yaw.cos())
+    });
     let heading = s.atan2(c);
-    let pairs = formed
+    let links: Vec<(LinkKind, RobotId, RobotId)> = formed
         .links
         .iter()
-        .map(|&(l, a, b)| match l {
-            puzzlebot_params::formation::Link::Anchor => Pair {
-                a,
-                b,
-                kind: PairKind::Anchor,
-                point: None,
-            },
-            puzzlebot_params::formation::Link::Knob => Pair {
-                a,
-                b,
-                kind: PairKind::Knob,
-                point: Some(knob_point(&robots[a], &robots[b], g)),
-            },
-        })
+        .map(|&(l, a, b)| (l.into(), formed.ids[a], formed.ids[b]))
         .collect();
-    let a = PuzzleAssembly { robots, pairs };
+    let a = assembly_of(&members, &links, g);
     let settings = CrossSettings::for_params(params);
     let opt = crossing_options(&settings, params);
     let pilots = formed.pilots();
@@ -176,17 +181,6 @@ pub fn start(
             here.advance.limited_by,
         ));
     }
-    let links: Vec<(LinkKind, RobotId, RobotId)> = formed
-        .links
-        .iter()
-        .map(|&(l, a, b)| {
-            let kind = match l {
-                puzzlebot_params::formation::Link::Anchor => LinkKind::Anchor,
-                puzzlebot_params::formation::Link::Knob => LinkKind::Knob,
-            };
-            (kind, formed.ids[a], formed.ids[b])
-        })
-        .collect();
     Ok(CrossingController::new(
         here,
         terrain.clone(),
@@ -218,16 +212,6 @@ pub fn result(stop: &CrossStop, advance: f64, backed_off_to: Option<f64>) -> Res
             advance * 1e3
         )),
     }
-}
-
-/// The terrain of `file` among the loaded ones.
-pub fn terrain_of<'a>(
-    terrains: &'a BTreeMap<PathBuf, Terrain>,
-    file: &Path,
-) -> Result<&'a Terrain, String> {
-    terrains
-        .get(file)
-        .ok_or_else(|| format!("terrain {} was not loaded", file.display()))
 }
 
 #[cfg(test)]

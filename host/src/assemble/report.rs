@@ -74,8 +74,9 @@ pub struct TruthRecord {
     pub omega: f64,
     /// Wheel speeds (RPM).
     pub wheel_rpm: [f64; 2],
-    /// Motor duty (per mille).
-    pub duty: [i16; 2],
+    /// Motor duty (per mille); none from the 3-D world, which does not report it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub duty: Option<[i16; 2]>,
 }
 
 /// The report of a run of `ctl` on real robots recorded in `folder`: no ground truth, the

@@ -116,9 +116,9 @@ pub fn run_scenario_lockstep(
                             robot: r.id,
                             truth: [r.position[0], r.position[1], r.rpy[2]],
                             v: r.speed,
-                            omega: 0.0,
+                            omega: r.yaw_rate,
                             wheel_rpm: r.wheel_rpm,
-                            duty: [0, 0],
+                            duty: None,
                         });
                     }
                 }

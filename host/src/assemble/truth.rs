@@ -19,7 +19,7 @@ impl TruthRecord {
             v: r.v,
             omega: r.omega,
             wheel_rpm: r.wheel_rpm,
-            duty: r.duty,
+            duty: Some(r.duty),
         }
     }
 }

@@ -170,20 +170,25 @@ impl CrossingController {
         [h.cos(), h.sin()]
     }
 
-    /// The plan's stretches proven only at speed, widened by how far the measured advance
-    /// (an average over the robots) can lie from the plan's rigid translation: a check's
-    /// spacing, and half the travel of every anchor sliding in its opening. The end of the
-    /// widened stretch `d` lies in, if any. No check stops the drive there: stopping is
+    /// The stretch of the plan proven only at speed that advance `d` lies in, if any, widened
+    /// by [`Self::slack`]: its start and end (m). No check stops the drive there: stopping is
     /// what would tip the assembly.
-    fn stretch_end(&self, d: f64) -> Option<f64> {
+    fn stretch(&self, d: f64) -> Option<[f64; 2]> {
         let slack = self.slack();
         self.plan
             .advance
             .bridged
             .iter()
             .filter(|b| d >= b[0] - slack && d <= b[1] + slack)
-            .map(|b| b[1] + slack)
-            .reduce(f64::max)
+            .map(|b| [b[0] - slack, b[1] + slack])
+            .reduce(|a, b| [a[0].min(b[0]), a[1].max(b[1])])
+    }
+
+    /// The time (ms) the drive takes over `distance` at its speed.
+    fn drive_ms(&self, distance: f64) -> u16 {
+        (distance / self.settings.speed * 1e3)
+            .ceil()
+            .min(f64::from(u16::MAX)) as u16
     }
 
     /// How far the measured advance may lie from the plan's rigid translation (m): a
@@ -200,11 +205,7 @@ impl CrossingController {
 
     /// How long the drive needs to leave the stretch `d` lies in (ms; 0 outside one).
     fn hold_ms_at(&self, d: f64) -> u16 {
-        self.stretch_end(d).map_or(0, |end| {
-            ((end - d) / self.settings.speed * 1e3)
-                .ceil()
-                .min(f64::from(u16::MAX)) as u16
-        })
+        self.stretch(d).map_or(0, |s| self.drive_ms(s[1] - d))
     }
 
     fn stop(&mut self, t: f64, why: CrossStop) {
@@ -234,16 +235,9 @@ impl CrossingController {
         // Time to leave a stretch backwards: to its start.
         let period = (1e6 / self.rate_hz()).round() * 1e-6;
         let ahead = d - self.settings.speed * period;
-        let slack = self.slack();
         self.hold = if self.settings.hold_through_stretches {
-            self.plan
-                .advance
-                .bridged
-                .iter()
-                .filter(|b| ahead >= b[0] - slack && ahead <= b[1] + slack)
-                .map(|b| ((ahead - (b[0] - slack)) / self.settings.speed * 1e3).ceil())
-                .fold(0.0, f64::max)
-                .min(f64::from(u16::MAX)) as u16
+            self.stretch(ahead)
+                .map_or(0, |s| self.drive_ms(ahead - s[0]))
         } else {
             0
         };
@@ -338,7 +332,7 @@ impl Controller for CrossingController {
         } else {
             0
         };
-        if self.settings.live_gate && d >= self.next_check && self.stretch_end(d).is_none() {
+        if self.settings.live_gate && d >= self.next_check && self.stretch(d).is_none() {
             self.progress.gate_checks += 1;
             let poses: Vec<(RobotId, RobotPose)> = view
                 .robots
@@ -397,10 +391,31 @@ pub fn gate_now(
     opt: &CrossingOptions,
     heading: f64,
 ) -> Option<String> {
+    let a = assembly_of(poses, held, &params.non_pilot.geometry);
+    let Some(level) = assembly_level(&a, params, terrain) else {
+        return Some("no support under any robot".into());
+    };
+    let opt = opt.advance_options(0.0);
+    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
+        .and_then(|m| judge_model(&m, params, &opt, heading))
+    {
+        Ok(None) => None,
+        Ok(Some(why)) => Some(format!("{why:?}")),
+        Err(e) => Some(e.to_string()),
+    }
+}
+
+/// The gate's picture of robots `poses` (in their order) coupled by `links` (kind, robot with
+/// the anchor / knob, robot with the opening / hole); couplings of robots not among `poses`
+/// are left out.
+pub fn assembly_of(
+    poses: &[(RobotId, RobotPose)],
+    links: &[(LinkKind, RobotId, RobotId)],
+    g: &Geometry,
+) -> PuzzleAssembly {
     let robots: Vec<RobotPose> = poses.iter().map(|p| p.1).collect();
     let index = |id: RobotId| poses.iter().position(|p| p.0 == id);
-    let g = &params.non_pilot.geometry;
-    let pairs = held
+    let pairs = links
         .iter()
         .filter_map(|&(k, a, b)| {
             let (ia, ib) = (index(a)?, index(b)?);
@@ -420,23 +435,12 @@ pub fn gate_now(
             })
         })
         .collect();
-    let a = PuzzleAssembly { robots, pairs };
-    let Some(level) = assembly_level(&a, params, terrain) else {
-        return Some("no support under any robot".into());
-    };
-    let opt = opt.advance_options(0.0);
-    match build_model_with(&a, params, terrain, level, [0.0, 0.0], &opt)
-        .and_then(|m| judge_model(&m, params, &opt, heading))
-    {
-        Ok(None) => None,
-        Ok(Some(why)) => Some(format!("{why:?}")),
-        Err(e) => Some(e.to_string()),
-    }
+    PuzzleAssembly { robots, pairs }
 }
 
 /// Where the knob of robot `a` holding robot `b` sits in `a`'s frame: the side point of `a`
 /// nearest `b`, as the planner places it.
-pub fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
+fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
     let side = f64::from(g.side_point_x);
     let (s, c) = a.yaw.sin_cos();
     let fwd = c * (b.x - a.x) + s * (b.y - a.y);

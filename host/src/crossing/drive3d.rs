@@ -7,7 +7,7 @@
 use super::controller::{CrossStop, CrossingController};
 use super::formed::Formed;
 use crate::control::{Controller, FleetView, RobotView};
-use crate::drive::PoseSample;
+use crate::drive::{PoseSample, Twist};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
@@ -152,6 +152,13 @@ impl CrossSettings {
     }
 }
 
+/// Wheel speeds (RPM, left and right) that drive a robot at the twist `t`.
+pub fn wheel_rpms(t: Twist, params: &FleetParams) -> [f32; 2] {
+    let half_base = 0.5 * f64::from(params.non_pilot.geometry.wheel_base);
+    let [l, r] = [t.v - t.omega * half_base, t.v + t.omega * half_base];
+    [rpm_for(l, params), rpm_for(r, params)]
+}
+
 /// Wheel speed (RPM) that drives a robot at `v` (m/s).
 pub fn rpm_for(v: f64, params: &FleetParams) -> f32 {
     let r = f64::from(params.non_pilot.geometry.wheel_radius);
@@ -191,10 +198,7 @@ pub fn scenario(
         .links
         .iter()
         .map(|&(l, a, b)| CouplingSpec {
-            kind: match l {
-                puzzlebot_params::formation::Link::Anchor => LinkKind::Anchor,
-                puzzlebot_params::formation::Link::Knob => LinkKind::Knob,
-            },
+            kind: l.into(),
             a: formed.ids[a],
             b: formed.ids[b],
         })
@@ -293,7 +297,6 @@ pub fn cross(
     let t_limit = w.time_us() + (ctl.time_limit_s() * 1e6) as u64;
     let t0 = w.time_us();
     let tick_us = (1e6 / ctl.rate_hz()).round() as u64;
-    let half_base = 0.5 * f64::from(params.non_pilot.geometry.wheel_base);
     let mut out = CrossOutcome {
         crossed: false,
         advance: 0.0,
@@ -310,8 +313,7 @@ pub fn cross(
     // The host's commands to the world: each twist as wheel speeds, with its hold.
     let apply = |w: &mut World3d, ctl: &mut CrossingController, view: &FleetView| {
         for (id, t) in ctl.update(view) {
-            let [l, r] = [t.v - t.omega * half_base, t.v + t.omega * half_base];
-            w.command(id, Some([rpm_for(l, params), rpm_for(r, params)]));
+            w.command(id, Some(wheel_rpms(t, params)));
         }
         w.hold_all(ctl.hold_ms(0));
     };
@@ -404,9 +406,13 @@ pub fn cross(
 }
 
 /// What the host sees of the world now: every robot's exact pose (the world's motion
-/// capture), no velocity estimate.
+/// capture), no velocity estimate, at the world's time.
 pub fn view_of(w: &World3d) -> FleetView {
-    let t = w.time_us() as f64 * 1e-6;
+    view_at(w, w.time_us() as f64 * 1e-6)
+}
+
+/// [`view_of`] at host time `t` (s): a host whose clock started before the world's.
+pub fn view_at(w: &World3d, t: f64) -> FleetView {
     FleetView {
         t,
         robots: w
@@ -487,8 +493,6 @@ pub fn dissolve(
         .iter()
         .map(|r| platform_at(terrain, [r.position[0], r.position[1]]))
         .collect();
-    let g = &params.non_pilot.geometry;
-    let half_base = 0.5 * f64::from(g.wheel_base);
     let end = w.time_us() + (duration_s * 1e6) as u64;
     while w.time_us() < end {
         for (r, goal) in w.states().iter().zip(&goals) {
@@ -520,8 +524,7 @@ pub fn dissolve(
                     (3.0 * turn).clamp(-2.0, 2.0),
                 )
             };
-            let (l, rr) = (v - om * half_base, v + om * half_base);
-            w.command(r.id, Some([rpm_for(l, params), rpm_for(rr, params)]));
+            w.command(r.id, Some(wheel_rpms(Twist::new(v, om), params)));
         }
         w.run_for(20_000);
     }

@@ -7,8 +7,8 @@
 use puzzlebot_params::FleetParams;
 use puzzlebot_sim::physics3d::{Event3d, World3d};
 
-use super::drive3d::{held, rpm_for, view_of};
-use crate::control::{Controller, FleetView, HandRequest};
+use super::drive3d::{held, view_at, wheel_rpms};
+use crate::control::{Controller, HandRequest};
 
 /// How a controller's run in the 3-D world ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,39 +33,20 @@ pub fn run(
     mut hook: impl FnMut(&World3d, f64),
 ) -> WorldRun {
     let period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
-    let half_base = 0.5 * f64::from(params.non_pilot.geometry.wheel_base);
     let start = w.time_us();
-    let view_at = |w: &World3d| {
-        let v = view_of(w);
-        let t = t_offset + (w.time_us() - start) as f64 * 1e-6;
-        FleetView {
-            t,
-            robots: v
-                .robots
-                .into_iter()
-                .map(|mut r| {
-                    if let Some(p) = r.pose.as_mut() {
-                        p.t = t;
-                    }
-                    r
-                })
-                .collect(),
-            latency_s: 0.0,
-        }
-    };
+    let view = |w: &World3d| view_at(w, t_offset + (w.time_us() - start) as f64 * 1e-6);
     let mut done = false;
     loop {
-        let view = view_at(w);
+        let view = view(w);
         hook(w, view.t);
         if view.t - t_offset >= limit {
             break;
         }
         let twists = ctl.update(&view);
         for r in &view.robots {
-            let rpm = twists.get(&r.id).map_or([0.0, 0.0], |t| {
-                let [l, rr] = [t.v - t.omega * half_base, t.v + t.omega * half_base];
-                [rpm_for(l, params), rpm_for(rr, params)]
-            });
+            let rpm = twists
+                .get(&r.id)
+                .map_or([0.0, 0.0], |&t| wheel_rpms(t, params));
             w.command(r.id, Some(rpm));
         }
         // One hold for the whole world: the crossing's is the same for every robot.
@@ -90,7 +71,7 @@ pub fn run(
     }
     w.command_all(Some([0.0, 0.0]));
     WorldRun {
-        t_end: view_at(w).t,
+        t_end: view(w).t,
         done,
         events: w.events().to_vec(),
     }
