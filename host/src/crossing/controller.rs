@@ -13,7 +13,7 @@ use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
-use puzzlebot_stability::crossing::{Candidate, CrossingOptions};
+use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::{
     assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
 };
@@ -27,7 +27,8 @@ use crate::drive::Twist;
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CrossStop {
-    /// It advanced the plan's required distance and the overshoot.
+    /// It advanced the plan's required distance and the overshoot, and every member stands
+    /// across.
     Reached,
     /// The gate could not prove the measured assembly (its verdict).
     Gate(String),
@@ -73,6 +74,9 @@ pub struct CrossingController {
     backing_since: Option<f64>,
     /// How often the host calls it (Hz).
     rate_hz: f64,
+    /// Integral of the members' mean heading error while driving forward (rad·s): the heading
+    /// hold's integral part ([`Self::twists`]).
+    heading_integral: f64,
     progress: CrossProgress,
 }
 
@@ -101,6 +105,7 @@ impl CrossingController {
             hold: 0,
             backing_since: None,
             rate_hz: 100.0,
+            heading_integral: 0.0,
             progress: CrossProgress {
                 advance: 0.0,
                 gate_checks: 0,
@@ -161,6 +166,56 @@ impl CrossingController {
         sum / n.max(1) as f64
     }
 
+    /// Adds one host period of the members' mean heading error to the heading hold's
+    /// integral, bounded so that its part never turns harder than the proportional part at
+    /// an error of one radian (|k_i · I| ≤ k_p).
+    fn integrate_heading(&mut self, view: &FleetView) {
+        let kp = self.settings.heading_gain;
+        if kp <= 0.0 {
+            return;
+        }
+        let heading = self.heading();
+        let errors: Vec<f64> = view
+            .robots
+            .iter()
+            .filter(|r| self.members.contains(&r.id))
+            .filter_map(|r| r.pose)
+            .map(|p| {
+                let e = heading - p.theta;
+                e.sin().atan2(e.cos())
+            })
+            .collect();
+        if errors.is_empty() {
+            return;
+        }
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        let bound = 4.0 / kp;
+        self.heading_integral = (self.heading_integral + mean / self.rate_hz).clamp(-bound, bound);
+    }
+
+    /// Every member of `view` stands wholly off the platform the plan starts on, as the
+    /// planner's required advance asks ([`stands_across`]): an assembly that drifted off
+    /// its heading has not crossed at the planned advance and drives on.
+    fn across(&self, view: &FleetView) -> bool {
+        let Some(start) = platform_at(&self.terrain, self.plan.start) else {
+            return true;
+        };
+        view.robots
+            .iter()
+            .filter(|r| self.members.contains(&r.id))
+            .all(|r| {
+                r.pose.is_some_and(|p| {
+                    let pose = RobotPose {
+                        kind: r.kind,
+                        x: p.x,
+                        y: p.y,
+                        yaw: p.theta,
+                    };
+                    stands_across(&pose, &self.params, &self.terrain, start)
+                })
+            })
+    }
+
     fn heading(&self) -> f64 {
         self.plan.heading_deg.to_radians()
     }
@@ -210,7 +265,11 @@ impl CrossingController {
 
     fn stop(&mut self, t: f64, why: CrossStop) {
         self.hold = 0;
-        if self.settings.back_off && matches!(why, CrossStop::Gate(_)) {
+        // Past the planned advance (an assembly that drifted off its heading drives on until
+        // every member stands across) the way back runs over the whole gap again, along a
+        // heading it no longer has: it stands where the gate stopped it.
+        let before_goal = self.progress.advance < self.goal();
+        if self.settings.back_off && before_goal && matches!(why, CrossStop::Gate(_)) {
             self.backing_since = Some(t);
         }
         self.progress.stopped = Some((t, self.progress.advance, why));
@@ -230,7 +289,7 @@ impl CrossingController {
             self.backing_since = None;
             self.hold = 0;
             self.progress.backed_off_to = Some(d);
-            return self.twists(view, false, 0.0);
+            return self.twists(view, false, 0.0, 0.0);
         }
         // Time to leave a stretch backwards: to its start.
         let period = (1e6 / self.rate_hz()).round() * 1e-6;
@@ -241,13 +300,30 @@ impl CrossingController {
         } else {
             0
         };
-        self.twists(view, self.settings.heading_gain > 0.0, -self.settings.speed)
+        self.twists(
+            view,
+            self.settings.heading_gain > 0.0,
+            -self.settings.speed,
+            0.0,
+        )
     }
 
     /// Twists of every robot of `view` at `speed` along the heading (0: standing) with each
-    /// non-pilot steered back to the heading (pilots drive straight only, THESIS 5.4.1).
-    fn twists(&self, view: &FleetView, steer: bool, speed: f64) -> BTreeMap<RobotId, Twist> {
+    /// non-pilot steered back to the heading (pilots drive straight only, THESIS 5.4.1): a
+    /// proportional-integral heading hold, the integral part `integral` (rad·s). The gains
+    /// make the hold critically damped on the heading's integrating dynamics, k_i = k_p² / 4:
+    /// a pilot whose wheels pull it off the heading (plant mismatch) leaves no lasting error,
+    /// where the proportional part alone leaves one of its pull over k_p.
+    fn twists(
+        &self,
+        view: &FleetView,
+        steer: bool,
+        speed: f64,
+        integral: f64,
+    ) -> BTreeMap<RobotId, Twist> {
         let heading = self.heading();
+        let kp = self.settings.heading_gain;
+        let ki = 0.25 * kp * kp;
         view.robots
             .iter()
             .map(|r| {
@@ -257,7 +333,7 @@ impl CrossingController {
                     (false, Some(p)) => {
                         let e = heading - p.theta;
                         let turn = if steer && r.kind != RobotKind::Pilot {
-                            self.settings.heading_gain * e.sin().atan2(e.cos())
+                            kp * e.sin().atan2(e.cos()) + ki * integral
                         } else {
                             0.0
                         };
@@ -293,7 +369,7 @@ impl Controller for CrossingController {
             self.hold = 0;
         }
         if self.stopped() {
-            return self.twists(view, false, 0.0);
+            return self.twists(view, false, 0.0, 0.0);
         }
         let lost = self
             .members
@@ -301,7 +377,7 @@ impl Controller for CrossingController {
             .find(|id| !view.robots.iter().any(|r| r.id == **id && r.pose.is_some()));
         if let Some(&id) = lost {
             self.stop(view.t, CrossStop::PoseLost(id));
-            return self.twists(view, false, 0.0);
+            return self.twists(view, false, 0.0, 0.0);
         }
         let Some(t0) = self.progress.started_s else {
             // The first update sets the start: the drive starts from rest with equal wheel
@@ -313,17 +389,17 @@ impl Controller for CrossingController {
                 .filter_map(|r| r.pose.map(|p| (r.id, [p.x, p.y])))
                 .collect();
             self.progress.started_s = Some(view.t);
-            return self.twists(view, false, self.settings.speed);
+            return self.twists(view, false, self.settings.speed, 0.0);
         };
         let d = self.advance(view);
         self.progress.advance = d;
-        if d >= self.goal() {
+        if d >= self.goal() && self.across(view) {
             self.stop(view.t, CrossStop::Reached);
-            return self.twists(view, false, 0.0);
+            return self.twists(view, false, 0.0, 0.0);
         }
         if view.t - t0 >= self.time_limit_s() {
             self.stop(view.t, CrossStop::TimedOut);
-            return self.twists(view, false, 0.0);
+            return self.twists(view, false, 0.0, 0.0);
         }
         // Looking one host period ahead: the hold must already run when the link fails.
         self.hold = if self.settings.hold_through_stretches {
@@ -360,11 +436,18 @@ impl Controller for CrossingController {
             );
             if let Some(why) = verdict {
                 self.stop(view.t, CrossStop::Gate(why));
-                return self.twists(view, false, 0.0);
+                return self.twists(view, false, 0.0, 0.0);
             }
             self.next_check = d + self.settings.gate_every;
         }
-        self.twists(view, self.settings.heading_gain > 0.0, self.settings.speed)
+        self.integrate_heading(view);
+        let integral = self.heading_integral;
+        self.twists(
+            view,
+            self.settings.heading_gain > 0.0,
+            self.settings.speed,
+            integral,
+        )
     }
 
     fn done(&self, _t: f64) -> bool {
@@ -597,5 +680,71 @@ mod tests {
         c.update(&two(0.1, 0.1));
         assert!(!c.stopped(), "{:?}", c.progress());
         assert!(c.hold_ms(1) > 0);
+    }
+
+    #[test]
+    fn an_assembly_short_of_the_far_side_at_the_planned_advance_drives_on() {
+        let (c, terrain, plan) = line_of_two();
+        let settings = CrossSettings {
+            live_gate: false,
+            ..CrossSettings::default()
+        };
+        let links = vec![(LinkKind::Anchor, 1, 2)];
+        let mut c =
+            CrossingController::new(plan.clone(), terrain, c.params, settings, vec![1, 2], links);
+        let x = plan.start[0];
+        let goal = c.goal();
+        let two = |t: f64, d1: f64, d2: f64| {
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x + d1, 0.0, 0.0])),
+                    (2, RobotKind::NonPilot, Some([x - 0.05 + d2, 0.0, 0.0])),
+                ],
+            )
+        };
+        c.update(&two(0.0, 0.0, 0.0));
+        // The mean advance reached, the back robot still on the near platform.
+        let on = c.update(&two(1.0, goal + 0.04, goal - 0.04));
+        assert!(c.progress().advance >= goal);
+        assert!(!c.stopped(), "{:?}", c.progress());
+        assert!(on.values().all(|t| t.v > 0.0), "{on:?}");
+        // Both across: reached.
+        c.update(&two(2.0, goal, goal));
+        assert!(
+            matches!(c.progress().stopped, Some((_, _, CrossStop::Reached))),
+            "{:?}",
+            c.progress()
+        );
+    }
+
+    #[test]
+    fn a_lasting_heading_error_is_steered_out_by_the_integral() {
+        let (mut c, _, plan) = line_of_two();
+        let (x1, x2) = (plan.start[0], plan.start[0] - 0.05);
+        // Held 0.1 rad off the heading (a pilot pulling to one side) over five seconds of
+        // small advances.
+        let at = |t: f64| {
+            let dx = 1e-4 * t;
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x1 + dx, 0.0, 0.1])),
+                    (2, RobotKind::NonPilot, Some([x2 + dx, 0.0, 0.1])),
+                ],
+            )
+        };
+        c.update(&at(0.0));
+        let kp = c.settings.heading_gain;
+        let first = c.update(&at(0.01))[&2].omega;
+        assert!((first + kp * 0.1).abs() < 0.01 * kp, "{first}");
+        let mut last = first;
+        for i in 2..500 {
+            last = c.update(&at(0.01 * f64::from(i)))[&2].omega;
+        }
+        assert!(!c.stopped(), "{:?}", c.progress());
+        // Turning back harder than the proportional part alone, within its bound.
+        assert!(last < 1.5 * first, "{first} -> {last}");
+        assert!(last >= -kp * 1.1 - 1e-9, "{last}");
     }
 }

@@ -37,8 +37,8 @@ pub struct CrossSettings {
     /// Stop at the first fall or opened connector (the host's crossing); experiments drive
     /// on to count the robots that still reach the far platform.
     pub stop_on_failure: bool,
-    /// After a gate stop, back off to where the crossing started
-    /// ([`super::controller::CrossingController`]) rather than stand astride the gap.
+    /// After a gate stop short of the planned advance, back off to where the crossing
+    /// started ([`super::controller::CrossingController`]) rather than stand astride the gap.
     pub back_off: bool,
     /// Through a stretch the plan proves only at speed, ask the robots to keep driving when
     /// the link falls silent ([`puzzlebot_protocol::HostMsg::WheelSpeedHold`]) until past

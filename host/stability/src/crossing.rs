@@ -17,7 +17,7 @@ use crate::gate::evaluate;
 use crate::puzzlebot::{
     assembly_level, body_corners, build_model_with, contact_points, max_safe_advance_with,
     support_events, world, AdapterError, Advance, AdvanceOptions, LimitedBy, LoadTransfer,
-    PuzzleAssembly, EVENT_EPS,
+    PuzzleAssembly, RobotPose, EVENT_EPS,
 };
 use crate::sag::Settling;
 use puzzlebot_params::formation::{self, Link, Shape};
@@ -321,8 +321,28 @@ fn ranked(mut out: Vec<Candidate>, opt: &CrossingOptions) -> Result<Vec<Candidat
 }
 
 /// Index of the platform under `p`.
-fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
+/// The platform of `t` under point `p` (world, m), if any.
+pub fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
     t.platforms.iter().position(|pl| pl.contains(p))
+}
+
+/// Robot `r` stands wholly off platform `start` of `terrain`: every underside corner over
+/// another platform, and every wheel a radius clear of `start`, so that none still rests on
+/// its edge. The end of a crossing, for the planner and for the drive that measures it.
+pub fn stands_across(r: &RobotPose, params: &FleetParams, terrain: &Terrain, start: usize) -> bool {
+    let off_start = |p: [f64; 2]| platform_at(terrain, p).is_some_and(|i| i != start);
+    let (fs, fc) = r.yaw.sin_cos();
+    let radius = f64::from(params.robot(r.kind).geometry.wheel_radius);
+    body_corners(r.kind, params)
+        .iter()
+        .all(|&b| off_start(world(r, b)))
+        && contact_points(r.kind, params)
+            .iter()
+            .filter(|(_, wheel)| *wheel)
+            .all(|&(b, _)| {
+                let q = world(r, b);
+                platform_at(terrain, [q[0] - radius * fc, q[1] - radius * fs]) != Some(start)
+            })
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -402,23 +422,9 @@ fn judge_placed(
     // underside corner over one, and every wheel a radius clear of the start platform, so
     // that none still rests on its edge.
     let across = |d: f64| {
-        a.robots.iter().all(|r| {
-            let moved = r.translated([c * d, s * d]);
-            let off_start = |p: [f64; 2]| platform_at(terrain, p).is_some_and(|i| i != start);
-            let (fs, fc) = moved.yaw.sin_cos();
-            let radius = f64::from(params.robot(r.kind).geometry.wheel_radius);
-            body_corners(r.kind, params)
-                .iter()
-                .all(|&b| off_start(world(&moved, b)))
-                && contact_points(r.kind, params)
-                    .iter()
-                    .filter(|(_, wheel)| *wheel)
-                    .all(|&(b, _)| {
-                        let q = world(&moved, b);
-                        platform_at(terrain, [q[0] - radius * fc, q[1] - radius * fs])
-                            != Some(start)
-                    })
-        })
+        a.robots
+            .iter()
+            .all(|r| stands_across(&r.translated([c * d, s * d]), params, terrain, start))
     };
     let limit = 4.0 * formation::footprint(shape, g)[0] + 1.0;
     let mut required = 0.0;

@@ -169,6 +169,10 @@ pub struct CoordinatorConfig {
     /// A formation counts as complete once every planned pair has stayed connected this long
     /// (s): the last join can knock an earlier pair loose a moment after it connects.
     pub form_settle_s: f64,
+    /// A grown formation whose planned pairs are all connected keeps its members at their
+    /// planned places this long at most (s) for the layout's closing knobs to seat
+    /// ([`super::Closure`]), then counts as complete with them open.
+    pub closure_wait_s: f64,
     /// Smallest turning radius of a pilot (m,
     /// [`puzzlebot_params::drive::Drive::min_turn_radius`]).
     pub pilot_turn_radius: f64,
@@ -231,6 +235,7 @@ impl Default for CoordinatorConfig {
             strict_convex_first: true,
             horizon_steps: 10,
             form_settle_s: 1.0,
+            closure_wait_s: 10.0,
             dt: 0.1,
             heading_gain: 1.0,
             dock: DockConfig::default(),

@@ -80,6 +80,13 @@ pub enum EventKind {
     },
     /// Every pair of the plan is connected.
     FormationComplete,
+    /// A grown formation counts as complete with these closing knobs of its layout open
+    /// (knob robot, hole robot): they did not seat within
+    /// [`super::CoordinatorConfig::closure_wait_s`] ([`super::Closure`]).
+    ClosuresOpen {
+        /// The open knobs (knob robot, hole robot).
+        pairs: Vec<(RobotId, RobotId)>,
+    },
     /// A behaviour started.
     BehaviourStarted {
         /// Its name.

@@ -128,18 +128,25 @@ impl Coordinator {
     /// to the seed, which keeps where it was first held ([`Role::Keep`]). A robot docking at
     /// the assembly's side turns its members about their anchors (rubbing along them, and
     /// steering by their poses); held at zero speed, or where they first stood, a row stays
-    /// bent to the anchors' play, its corner in the docking lane.
+    /// bent to the anchors' play, its corner in the docking lane. Once every planned pair
+    /// is connected they keep on while the layout's closing knobs seat ([`super::closures`]),
+    /// a robot hanging at its anchors beside an open one kept beside its knob partner.
     pub(super) fn keep_grown(
         &mut self,
         tasks: &mut [RobotTask],
         segments: &BTreeMap<RobotId, usize>,
     ) {
         let home_robot = self.grow_home(segments);
-        // Only while robots still join: once every pair is connected nobody docks at the
-        // side, and two coupled robots each driven to its own pose push each other through
-        // the anchor's play (late, noisy poses make that a wiggle that pops the legs).
+        // Only while robots still join or a closing knob is open: once every knob is in
+        // nobody docks at the side, and two coupled robots each driven to its own pose push
+        // each other through the anchor's play (late, noisy poses make that a wiggle that
+        // pops the legs).
         let home = match (&self.mode, home_robot) {
-            (Mode::Form, Some(seed)) if !self.is_complete() => segments.get(&seed).copied(),
+            (Mode::Form, Some(seed))
+                if !self.is_complete() || self.closing(self.now, self.complete_since) =>
+            {
+                segments.get(&seed).copied()
+            }
             _ => None,
         };
         let size = home.map_or(0, |h| segments.values().filter(|&&s| s == h).count());
@@ -180,6 +187,9 @@ impl Coordinator {
             }
         }
         self.kept_at = kept;
+        if self.closing(self.now, self.complete_since) {
+            self.close_open(tasks);
+        }
     }
 }
 

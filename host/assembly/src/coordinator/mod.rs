@@ -13,6 +13,7 @@
 //! `motion` (moving an assembly) and `decouple` (wiggling pairs apart).
 
 mod approach;
+mod closures;
 mod config;
 mod decouple;
 mod events;
@@ -35,6 +36,7 @@ mod train;
 mod tug;
 
 use approach::Manoeuvre;
+pub use closures::Closure;
 pub use config::{CoordinatorConfig, DecoupleConfig, DockConfig};
 use decouple::ReleaseWatch;
 pub use events::{Event, EventKind};
@@ -109,6 +111,10 @@ pub struct Coordinator {
     plan: Option<Plan>,
     heading: Option<f64>,
     pairs: Vec<TrackedPair>,
+    /// The plan's closing knobs ([`closures`]).
+    closures: Vec<Closure>,
+    /// Since when none of them has been open (s).
+    closed_since: Option<f64>,
     released: BTreeSet<usize>,
     /// When each released pair was released, and the pairs re-wiggled because their head
     /// stayed in ([`Coordinator::update_released`]).
@@ -168,6 +174,8 @@ impl Coordinator {
             plan: None,
             heading: None,
             pairs: Vec::new(),
+            closures: Vec::new(),
+            closed_since: None,
             released: BTreeSet::new(),
             release_watch: ReleaseWatch::default(),
             robots: BTreeMap::new(),
@@ -320,6 +328,7 @@ impl Coordinator {
         self.update_released(t);
         self.confirm_by_tug(t);
         self.update_wiggles(t);
+        self.watch_closures(t);
         self.complete_since = if self.is_complete() {
             Some(self.complete_since.unwrap_or(t))
         } else {
@@ -327,9 +336,18 @@ impl Coordinator {
         };
         let complete = self
             .complete_since
-            .is_some_and(|since| t - since >= self.cfg.form_settle_s - 1e-9);
+            .is_some_and(|since| t - since >= self.cfg.form_settle_s - 1e-9)
+            && !self.closing(t, self.complete_since);
         if complete && !self.complete_reported && self.mode == Mode::Form {
             self.complete_reported = true;
+            let open: Vec<(RobotId, RobotId)> = self
+                .open_closures()
+                .iter()
+                .map(|c| (c.knob, c.hole))
+                .collect();
+            if !open.is_empty() {
+                self.push(t, EventKind::ClosuresOpen { pairs: open });
+            }
             self.push(t, EventKind::FormationComplete);
         }
         let segments = self.segments();

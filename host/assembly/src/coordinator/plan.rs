@@ -69,6 +69,8 @@ impl Coordinator {
         self.complete_since = None;
         let robots = plan.slot_robot.clone();
         let n = plan.pairs.len();
+        self.closures = closures::closures_of(&plan, &self.geometry);
+        self.closed_since = None;
         self.plan = Some(plan);
         if replanned {
             self.push(t, EventKind::Replanned { robots });
