@@ -342,8 +342,8 @@ pub(crate) enum ExperimentCmd {
         /// Seed of the first start (start i has seed + i); default: from the clock, printed.
         #[arg(long)]
         seed: Option<u64>,
-        /// Impairment profile: ideal, lab or harsh (link loss, motion capture, plant
-        /// mismatch as for `experiment assemblies`).
+        /// Impairment profile: ideal, lab or harsh (controller latency, link loss, motion
+        /// capture, plant mismatch as for `experiment assemblies`).
         #[arg(long, default_value = "ideal")]
         profile: String,
         /// The pilot's heading from the crossing direction (degrees).

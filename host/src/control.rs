@@ -7,6 +7,7 @@
 //! Also here: reference trajectories (line, circle) and a trajectory-following
 //! controller (the demo's behaviour until assemblies land; THESIS 5.26 is the MPC version).
 
+mod command_delay;
 mod tracker;
 mod trajectory;
 
@@ -22,6 +23,7 @@ use crate::link::FleetLink;
 use crate::pose::PoseTable;
 use crate::report::RunFolder;
 
+pub use command_delay::CommandDelay;
 pub use tracker::{track, TrackerGains, TrajectoryFollower};
 pub use trajectory::{Path, RefState, Trajectory};
 

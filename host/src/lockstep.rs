@@ -17,12 +17,12 @@ use puzzlebot_protocol::pose::BodyPose;
 use puzzlebot_protocol::{FleetKey, HostMsg, HostReceived, HostSession, RobotId, MAX_DATAGRAM};
 use puzzlebot_sim::{RobotTruth, Scenario, SimEvent, World};
 
-use crate::control::{Controller, FleetView, HandRequest, LoopOptions, RobotView};
+use crate::control::{CommandDelay, Controller, FleetView, HandRequest, LoopOptions, RobotView};
 use crate::drive::{DriveMap, PoseSample, Stabiliser, Twist, VelocityEstimator};
 
 /// Mixed into the scenario's seed for the command jitter's generator (the simulator draws
 /// its own noise from the seed itself).
-const JITTER_SEED: u64 = 0x6a09_e667_f3bc_c909;
+pub(crate) const JITTER_SEED: u64 = 0x6a09_e667_f3bc_c909;
 
 /// Weight of the newest measured command delay in its running average.
 const LATENCY_SMOOTHING: f64 = 0.2;
@@ -127,13 +127,9 @@ pub struct Lockstep {
     stale_us: u64,
     /// Capture time of the last pose given to each robot's velocity estimator (µs).
     estimated: BTreeMap<RobotId, u64>,
-    /// Simulated controller latency: commands apply this long after the tick (µs).
-    command_delay_us: u64,
-    /// Extra latency drawn per tick from [0, this) (µs; 0 = none), as a loaded real host's
-    /// solve times vary.
-    command_jitter_us: u64,
-    /// Draws the jitter; seeded from the scenario's seed, so runs stay reproducible.
-    jitter_rng: rand::rngs::StdRng,
+    /// Simulated controller latency, its jitter seeded from the scenario's seed so that runs
+    /// stay reproducible.
+    delay: CommandDelay<BTreeMap<RobotId, Twist>>,
 }
 
 impl Lockstep {
@@ -188,9 +184,7 @@ impl Lockstep {
             mocap: Some(BTreeMap::new()),
             stale_us: u64::from(scenario.params.rates.pose_stale_after_ms) * 1000,
             estimated: BTreeMap::new(),
-            command_delay_us: 0,
-            command_jitter_us: 0,
-            jitter_rng: rand::SeedableRng::seed_from_u64(scenario.seed ^ JITTER_SEED),
+            delay: CommandDelay::new(scenario.seed ^ JITTER_SEED),
         })
     }
 
@@ -199,7 +193,7 @@ impl Lockstep {
     /// up at the next 30 Hz command period, so the effective delay is rounded up to whole
     /// periods: 1–33 ms all act as one period (measured: 10, 20 and 30 ms gave identical runs).
     pub fn command_delay(mut self, ms: f64) -> Self {
-        self.command_delay_us = (ms.max(0.0) * 1000.0) as u64;
+        self.delay.set_delay_ms(ms);
         self
     }
 
@@ -207,7 +201,7 @@ impl Lockstep {
     /// drawn from the scenario's seed: the same scenario gives the same run), as on a real
     /// host whose solve times vary under load. Commands keep their order. Default 0.
     pub fn command_jitter(mut self, ms: f64) -> Self {
-        self.command_jitter_us = (ms.max(0.0) * 1000.0) as u64;
+        self.delay.set_jitter_ms(ms);
         self
     }
 
@@ -253,9 +247,7 @@ impl Lockstep {
         let ctl_period_us = (1e6 / ctl.rate_hz().clamp(0.1, 1000.0)) as u64;
         let (mut next_cmd, mut next_ctl) = (start, start);
         let mut cmds: BTreeMap<RobotId, Twist> = BTreeMap::new();
-        // (apply time, issue time, commands), in order.
-        let mut pending: std::collections::VecDeque<(u64, u64, BTreeMap<RobotId, Twist>)> =
-            std::collections::VecDeque::new();
+        self.delay.clear();
         // Measured delay from a tick to its commands acting (µs, smoothed), as a real host
         // measures it from the robots' command echo.
         let mut latency_us = 0.0_f64;
@@ -330,30 +322,16 @@ impl Lockstep {
                             }
                         }
                     }
-                    // The controller's own latency (its solve time on a real host): its
-                    // commands take effect `command_delay_us` later.
-                    let jitter = if self.command_jitter_us > 0 {
-                        rand::Rng::random_range(&mut self.jitter_rng, 0..self.command_jitter_us)
-                    } else {
-                        0
-                    };
-                    // A later tick's commands never overtake an earlier tick's.
-                    let after = pending.back().map_or(0, |&(at, _, _)| at);
-                    pending.push_back((
-                        (now + self.command_delay_us + jitter).max(after),
-                        now,
-                        new_cmds,
-                    ));
+                    // The controller's own latency (its solve time on a real host).
+                    self.delay.push(now, new_cmds);
                     if ctl.done(t) {
                         done = true;
                         break;
                     }
                 }
-                while pending.front().is_some_and(|(at, _, _)| *at <= now) {
-                    if let Some((_, issued, c)) = pending.pop_front() {
-                        latency_us += LATENCY_SMOOTHING * ((now - issued) as f64 - latency_us);
-                        cmds = c;
-                    }
+                while let Some((issued, c)) = self.delay.pop_due(now) {
+                    latency_us += LATENCY_SMOOTHING * ((now - issued) as f64 - latency_us);
+                    cmds = c;
                 }
                 // A robot without a fresh pose (none tracked within the stale limit) gets no
                 // command this period (its firmware holds the last one until its failsafe

@@ -49,7 +49,7 @@ pub use gate::{GateConfig, GateStop};
 pub use latency::{predict, FLEET_WAIT_S, MAX_PREDICTION_S};
 pub use report::{describe, AssemblyReport, TruthCoupling, TruthRecord};
 #[cfg(feature = "sim")]
-pub use run::{run_scenario, run_scenario_lockstep, RunHook};
+pub use run::{run_scenario, run_scenario_lockstep, run_scenario_lockstep_with, Latency, RunHook};
 pub use slow_steps::{slow_step_warnings, slowest_steady_speed};
 
 /// `puzzlebot shape info`: the text (or JSON) of [`shape_info`] for `line`, `mesh` or a file.

@@ -66,6 +66,10 @@ pub async fn run_scenario(
     Ok(report)
 }
 
+/// Mixed into the scenario's seed for the 3-D part's command jitter (the flat part's is
+/// [`crate::lockstep`]'s).
+const JITTER_SEED_3D: u64 = crate::lockstep::JITTER_SEED.rotate_left(17);
+
 /// [`run_scenario`] with the host's controller stepped in lockstep with the simulator
 /// ([`crate::lockstep`]: no sockets, no wall clock, the simulated motion capture as pose
 /// input): deterministic, faster than real time. The run folder gets the same event files, the
@@ -77,13 +81,37 @@ pub fn run_scenario_lockstep(
     runs_dir: &Path,
     max_duration: f64,
 ) -> anyhow::Result<AssemblyReport> {
+    run_scenario_lockstep_with(scenario, sim, runs_dir, max_duration, Latency::default())
+}
+
+/// The controller's latency in a simulated run (ms): a fixed part and a uniform random part
+/// on top, drawn from the scenario's seed.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Latency {
+    /// Fixed part (ms).
+    pub delay_ms: f64,
+    /// Random part, uniform in [0, this) per tick (ms).
+    pub jitter_ms: f64,
+}
+
+/// [`run_scenario_lockstep`] with the controller's commands acting `latency` after its
+/// ticks, on the flat plant and in the 3-D world alike.
+pub fn run_scenario_lockstep_with(
+    scenario: AsmScenario,
+    sim: puzzlebot_sim::Scenario,
+    runs_dir: &Path,
+    max_duration: f64,
+    latency: Latency,
+) -> anyhow::Result<AssemblyReport> {
     let gate = GateConfig {
         terrain: sim.terrain.clone(),
         ..GateConfig::default()
     };
     let params = sim.params.clone();
     let name = format!("assembly-{}", scenario.name);
-    let mut ls = crate::lockstep::Lockstep::new(&sim)?;
+    let mut ls = crate::lockstep::Lockstep::new(&sim)?
+        .command_delay(latency.delay_ms)
+        .command_jitter(latency.jitter_ms);
     let mut ctl = AssemblyController::new(scenario, params, gate)?;
     ctl.hand_over_crossings = true;
     let mut folder = RunFolder::create(runs_dir, &name)?;
@@ -106,7 +134,11 @@ pub fn run_scenario_lockstep(
     let crossed = match ctl.crossing_pending().map(std::path::Path::to_path_buf) {
         Some(file) => {
             let left = (max_duration - flat.t_end).max(0.0);
-            let w = cross_in_3d(&mut ctl, &sim, &truth, &file, flat.t_end, left, |w, t| {
+            let mut delay = crate::control::CommandDelay::new(sim.seed ^ JITTER_SEED_3D);
+            delay.set_delay_ms(latency.delay_ms);
+            delay.set_jitter_ms(latency.jitter_ms);
+            let part = (flat.t_end, left);
+            let w = cross_in_3d(&mut ctl, &sim, &truth, &file, part, &mut delay, |w, t| {
                 for r in w.states() {
                     let tr = folder.traces.entry(r.id).or_default();
                     tr.actual.push((t, r.position[0], r.position[1]));
@@ -149,15 +181,16 @@ pub fn run_scenario_lockstep(
 
 /// At a cross step the simulated robots move from the flat 2-D world into the 3-D world on
 /// the step's terrain, with the poses, kinds and couplings they have there (the 3-D world
-/// takes over where the assembly reaches terrain), and `ctl` goes on in it for up to `limit`
-/// s: the crossing and any steps after it. The 3-D world at the end.
+/// takes over where the assembly reaches terrain), and `ctl` goes on in it, its clock from
+/// `t_flat` s, for up to `limit` s: the crossing and any steps after it, its commands acting
+/// after `delay`. The 3-D world at the end.
 fn cross_in_3d(
     ctl: &mut AssemblyController,
     sim: &puzzlebot_sim::Scenario,
     truth: &puzzlebot_sim::GroundTruth,
     file: &Path,
-    t_flat: f64,
-    limit: f64,
+    (t_flat, limit): (f64, f64),
+    delay: &mut crate::control::CommandDelay<crate::crossing::world_run::Sent>,
     hook: impl FnMut(&puzzlebot_sim::physics3d::World3d, f64),
 ) -> anyhow::Result<puzzlebot_sim::physics3d::World3d> {
     use puzzlebot_sim::physics3d::{Config3d, World3d};
@@ -190,7 +223,7 @@ fn cross_in_3d(
     let mut w = World3d::new(&s3, Config3d::default())
         .map_err(|e| anyhow::anyhow!("the 3-D world at the cross step: {e}"))?;
     ctl.hand_over_crossings = false;
-    crate::crossing::world_run::run(&mut w, ctl, &sim.params, t_flat, limit, hook);
+    crate::crossing::world_run::run(&mut w, ctl, &sim.params, t_flat, limit, delay, hook);
     Ok(w)
 }
 

@@ -2,7 +2,8 @@
 //! robots, the pilot set down facing the gap at a given heading and three non-pilots
 //! scattered behind it, run `host/assembly/data/scenarios/cross_gap.toml` in lockstep (grow a
 //! 2 × 2 mesh on the 2-D plant, cross a 25 mm gap in the 3-D world), each start drawn from
-//! its seed with the impairment profile's link loss, motion capture and plant mismatch.
+//! its seed with the impairment profile's controller latency, link loss, motion capture and
+//! plant mismatch.
 //! Counts how many cross, back off after a gate stop, are refused before moving, stop
 //! elsewhere, fall or do not form.
 
@@ -143,7 +144,18 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
         &|&seed| {
             let sim = fleet(seed, opts.heading_deg, opts.profile);
             let dir = tmp.join(seed.to_string());
-            let r = crate::assemble::run_scenario_lockstep(scenario.clone(), sim, &dir, 300.0);
+            let imp = opts.profile.impairment();
+            let latency = crate::assemble::Latency {
+                delay_ms: imp.delay_ms(),
+                jitter_ms: imp.jitter_ms(),
+            };
+            let r = crate::assemble::run_scenario_lockstep_with(
+                scenario.clone(),
+                sim,
+                &dir,
+                300.0,
+                latency,
+            );
             std::fs::remove_dir_all(&dir).ok();
             r.map(|r| classify(seed, &r, &terrain))
                 .map_err(|e| format!("seed {seed}: {e:#}"))
