@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use puzzlebot_assembly::{RunState, Scenario as AsmScenario};
-use puzzlebot_host::assemble::{self, AssemblyReport};
+use puzzlebot_host::assemble::AssemblyReport;
+use puzzlebot_host::record::{self, Recording};
 use puzzlebot_params::FleetParams;
 use puzzlebot_stability::crossing::load_terrain;
 
@@ -16,7 +17,7 @@ fn repo(p: &str) -> PathBuf {
 
 /// `cross_gap.toml` with its cross step over `terrain` (a path from the repository root), on
 /// the fleet of `hil-sim/scenarios/mesh_at_gap.toml`.
-fn run(terrain: &str, tag: &str) -> AssemblyReport {
+fn run(terrain: &str, tag: &str) -> (AssemblyReport, Recording) {
     let file = repo("host/assembly/data/scenarios/cross_gap.toml");
     let text = std::fs::read_to_string(&file)
         .unwrap()
@@ -26,17 +27,31 @@ fn run(terrain: &str, tag: &str) -> AssemblyReport {
     let sim =
         puzzlebot_sim::Scenario::from_file(&repo("hil-sim/scenarios/mesh_at_gap.toml")).unwrap();
     let runs = std::env::temp_dir().join(format!("pb-cross-step-{tag}-{}", std::process::id()));
-    let r = assemble::run_scenario_lockstep(scenario, sim, &runs, 200.0).unwrap();
+    let (r, path) = record::run_scenario_lockstep(scenario, sim, &runs, 200.0).unwrap();
+    let rec = Recording::read(&path).unwrap();
     std::fs::remove_dir_all(&runs).ok();
-    r
+    (r, rec)
 }
 
 #[test]
 fn a_formed_mesh_crosses_a_gap_a_lone_robot_falls_into_in_a_scenario_step() {
     let t0 = std::time::Instant::now();
     let terrain = load_terrain(&repo("host/stability/examples/gap25.toml")).unwrap();
-    let r = run("host/stability/examples/gap25.toml", "ok");
+    let (r, rec) = run("host/stability/examples/gap25.toml", "ok");
     assert_eq!(r.state, RunState::Finished, "{:?}", r.events.last());
+    // The recording goes on in the 3-D world: its terrain, and every robot's last recorded
+    // pose on the far platform.
+    assert_eq!(rec.info.terrain, terrain);
+    for id in r.final_poses.keys() {
+        let last = rec
+            .messages
+            .iter()
+            .rev()
+            .find(|m| m.topic == format!("/robot_{id}/pose/true"))
+            .unwrap();
+        let x = last.data["pose"]["position"]["x"].as_f64().unwrap();
+        assert!(x > 0.325, "robot {id} last recorded at x = {x}");
+    }
     assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
     // Every robot ends on the far platform.
     for (id, p) in &r.final_poses {
@@ -56,7 +71,7 @@ fn a_formed_mesh_crosses_a_gap_a_lone_robot_falls_into_in_a_scenario_step() {
 fn a_crossing_the_gate_cannot_prove_is_refused_before_anything_moves() {
     // THESIS 3.5.2's 40 mm gap, 5 mm down: along the mesh's 50° heading the gate does not
     // prove it (it does at 0°, and the refusal says so).
-    let r = run("host/stability/examples/gap40_down5.toml", "refused");
+    let (r, _) = run("host/stability/examples/gap40_down5.toml", "refused");
     let RunState::Failed { index, reason } = &r.state else {
         panic!("not refused: {:?}", r.state);
     };

@@ -139,6 +139,7 @@ pub fn run_scenario_lockstep_with(
             delay.set_jitter_ms(latency.jitter_ms);
             let part = (flat.t_end, left);
             let w = cross_in_3d(&mut ctl, &sim, &truth, &file, part, &mut delay, |w, t| {
+                crate::record::observe_3d(t, w);
                 for r in w.states() {
                     let tr = folder.traces.entry(r.id).or_default();
                     tr.actual.push((t, r.position[0], r.position[1]));
@@ -223,6 +224,7 @@ fn cross_in_3d(
     let mut w = World3d::new(&s3, Config3d::default())
         .map_err(|e| anyhow::anyhow!("the 3-D world at the cross step: {e}"))?;
     ctl.hand_over_crossings = false;
+    crate::record::enter_3d(&s3.terrain);
     crate::crossing::world_run::run(&mut w, ctl, &sim.params, t_flat, limit, delay, hook);
     Ok(w)
 }

@@ -13,7 +13,7 @@ use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::physics3d::{Config3d, Event3d, RobotState3d, World3d};
 use puzzlebot_sim::{CouplingSpec, LinkKind, RobotSpec, Scenario};
-use puzzlebot_stability::crossing::{formed_with, Candidate, CrossingOptions};
+use puzzlebot_stability::crossing::{formed_with, platform_at, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::LoadTransfer;
 use puzzlebot_stability::sag::Settling;
 use serde::Serialize;
@@ -261,11 +261,6 @@ pub fn held(w: &World3d) -> Vec<(LinkKind, RobotId, RobotId)> {
         .filter(|c| c.3)
         .map(|c| (c.0, c.1, c.2))
         .collect()
-}
-
-/// Index of the platform under `p`.
-fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
-    t.platforms.iter().position(|pl| pl.contains(p))
 }
 
 /// Drive the assembly of `w` (standing where `c` starts) across along `c`'s heading with

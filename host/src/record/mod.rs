@@ -18,7 +18,7 @@ pub use read::{Recording, RunInfo, RUN_ATTACHMENT};
 #[cfg(feature = "sim")]
 pub use recorder::{Recorder, SAMPLE_PERIOD};
 #[cfg(feature = "sim")]
-pub(crate) use tap::observe;
+pub(crate) use tap::{enter_3d, observe, observe_3d};
 #[cfg(feature = "sim")]
 pub use tap::{recording, run_scenario_lockstep};
 

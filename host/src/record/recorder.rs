@@ -21,6 +21,8 @@ use crate::control::FleetView;
 /// Interval between pose, footprint and coupling samples (s): 10 Hz.
 pub const SAMPLE_PERIOD: f64 = 0.1;
 
+mod world3d;
+
 /// One buffered message.
 struct Msg {
     topic: String,
@@ -37,6 +39,8 @@ pub struct Recorder {
     next_sample: f64,
     /// Simulator events already recorded.
     sim_events_seen: usize,
+    /// Events of the 3-D world already recorded ([`world3d`]).
+    events_3d_seen: usize,
 }
 
 /// Schema (name, JSON Schema) of every schema name used.
@@ -118,6 +122,7 @@ impl Recorder {
             messages: Vec::new(),
             next_sample: 0.0,
             sim_events_seen: 0,
+            events_3d_seen: 0,
         }
     }
 

@@ -47,6 +47,26 @@ pub(crate) fn observe(t: f64, world: &World, view: &FleetView, sent: &[(RobotId,
     });
 }
 
+/// The lockstep run on this thread moves to the 3-D world on `terrain` (a no-op unless
+/// [`recording`] is running on this thread).
+pub(crate) fn enter_3d(terrain: &puzzlebot_params::terrain::Terrain) {
+    TAP.with(|tap| {
+        if let Some(rec) = tap.borrow_mut().as_mut() {
+            rec.enter_3d(terrain);
+        }
+    });
+}
+
+/// Called once per controller period of the 3-D part of a lockstep run at controller time
+/// `t` (a no-op unless [`recording`] is running on this thread).
+pub(crate) fn observe_3d(t: f64, world: &puzzlebot_sim::physics3d::World3d) {
+    TAP.with(|tap| {
+        if let Some(rec) = tap.borrow_mut().as_mut() {
+            rec.sample_3d(t, world);
+        }
+    });
+}
+
 /// [`crate::assemble::run_scenario_lockstep`], recorded: the run folder also gets
 /// `run.mcap`. Returns the report and the recording's path.
 pub fn run_scenario_lockstep(
