@@ -331,10 +331,10 @@ pub(crate) enum ExperimentCmd {
         #[arg(long)]
         json: bool,
     },
-    /// The scenario cross step from fresh starts: four robots (the pilot set down facing a
-    /// 25 mm gap, three non-pilots scattered behind it) grow a 2 x 2 mesh and cross
-    /// (host/assembly/data/scenarios/cross_gap.toml) in lockstep; counts of crossed, backed
-    /// off after a gate stop, refused, stopped, fallen, not formed.
+    /// The scenario cross step from fresh starts: four robots unless told (the pilot set
+    /// down facing a 25 mm gap, the non-pilots scattered behind it) grow a mesh of two rows
+    /// and cross (host/assembly/data/scenarios/cross_gap.toml) in lockstep; counts of
+    /// crossed, backed off after a gate stop, refused, stopped, fallen, not formed.
     CrossStep {
         /// Number of starts.
         #[arg(long, default_value_t = 30)]
@@ -349,6 +349,10 @@ pub(crate) enum ExperimentCmd {
         /// The pilot's heading from the crossing direction (degrees).
         #[arg(long, default_value_t = 50.0)]
         heading_deg: f64,
+        /// Robots, the pilot among them (2-8): they grow a mesh of two rows (an odd number
+        /// leaves the rows uneven, which the cross step refuses to read as a mesh).
+        #[arg(long, default_value_t = 4)]
+        robots: usize,
         /// Worker threads (0: one per core).
         #[arg(long, default_value_t = 0)]
         threads: usize,

@@ -190,6 +190,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                     seed,
                     profile,
                     heading_deg,
+                    robots,
                     threads,
                     json,
                 },
@@ -197,6 +198,13 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
             use puzzlebot_host::experiment::{cross_step, episode};
             if !(heading_deg.is_finite() && heading_deg.abs() < 86.0) {
                 anyhow::bail!("--heading-deg: within ±86°, got {heading_deg}");
+            }
+            if !cross_step::ROBOTS.contains(&robots) {
+                anyhow::bail!(
+                    "--robots: {}-{} robots fit the start area, got {robots}",
+                    cross_step::ROBOTS.start(),
+                    cross_step::ROBOTS.end()
+                );
             }
             let seed = seed.unwrap_or_else(|| {
                 std::time::SystemTime::now()
@@ -208,6 +216,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 seed,
                 profile: episode::Profile::parse(&profile)?,
                 heading_deg,
+                robots,
                 threads,
             };
             let t0 = std::time::Instant::now();

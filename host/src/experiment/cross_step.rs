@@ -1,11 +1,10 @@
-//! The scenario `cross` step from fresh starts (`puzzlebot experiment cross-step`): four
-//! robots, the pilot set down facing the gap at a given heading and three non-pilots
-//! scattered behind it, run `host/assembly/data/scenarios/cross_gap.toml` in lockstep (grow a
-//! 2 × 2 mesh on the 2-D plant, cross a 25 mm gap in the 3-D world), each start drawn from
-//! its seed with the impairment profile's controller latency, link loss, motion capture and
-//! plant mismatch.
-//! Counts how many cross, back off after a gate stop, are refused before moving, stop
-//! elsewhere, fall or do not form.
+//! The scenario `cross` step from fresh starts (`puzzlebot experiment cross-step`): a fleet
+//! of four robots unless told, the pilot set down facing the gap at a given heading and the
+//! non-pilots scattered behind it, run `host/assembly/data/scenarios/cross_gap.toml` in
+//! lockstep (grow a mesh of two rows on the 2-D plant, cross a 25 mm gap in the 3-D world),
+//! each start drawn from its seed with the impairment profile's controller latency, link
+//! loss, motion capture and plant mismatch. Counts how many cross, back off after a gate
+//! stop, are refused before moving, stop elsewhere, fall or do not form.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -29,6 +28,8 @@ pub fn scenario_file() -> PathBuf {
 /// Where the non-pilots are scattered (m): x from, x to, half the width in y; and the least
 /// distance between two robots' centres (m).
 const AREA: ([f64; 2], f64) = ([-0.6, -0.12], 0.35);
+/// Fleet sizes the start area holds (the pilot among them).
+pub const ROBOTS: std::ops::RangeInclusive<usize> = 2..=8;
 /// Least distance between two robots' centres at the start (m).
 const SPACING: f64 = 0.12;
 /// The pilot's place (m): 0.35 m before the gap's near edge of `gap25.toml`.
@@ -45,6 +46,9 @@ pub struct Options {
     pub profile: Profile,
     /// The pilot's heading from the crossing direction (degrees).
     pub heading_deg: f64,
+    /// Robots in the fleet, the pilot among them ([`ROBOTS`]); an even number forms a
+    /// mesh of two full rows.
+    pub robots: usize,
     /// Worker threads (0: one per core).
     pub threads: usize,
 }
@@ -78,11 +82,16 @@ pub struct StartResult {
     pub state: String,
 }
 
-/// The fleet of start `seed`.
-pub fn fleet(seed: u64, heading_deg: f64, profile: Profile) -> puzzlebot_sim::Scenario {
+/// The fleet of start `seed`: the pilot and `robots` − 1 non-pilots.
+pub fn fleet(
+    seed: u64,
+    heading_deg: f64,
+    profile: Profile,
+    robots: usize,
+) -> puzzlebot_sim::Scenario {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let mut poses = vec![[PILOT_AT[0], PILOT_AT[1], heading_deg.to_radians()]];
-    while poses.len() < 4 {
+    while poses.len() < robots {
         let x = rng.random_range(AREA.0[0]..AREA.0[1]);
         let y = rng.random_range(-AREA.1..AREA.1);
         if poses.iter().all(|p| (p[0] - x).hypot(p[1] - y) > SPACING) {
@@ -142,7 +151,7 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
         &seeds,
         opts.threads,
         &|&seed| {
-            let sim = fleet(seed, opts.heading_deg, opts.profile);
+            let sim = fleet(seed, opts.heading_deg, opts.profile, opts.robots);
             let dir = tmp.join(seed.to_string());
             let imp = opts.profile.impairment();
             let latency = crate::assemble::Latency {
@@ -209,8 +218,9 @@ pub fn render(opts: &Options, results: &[StartResult]) -> String {
         *counts.entry(r.outcome).or_default() += 1;
     }
     let mut s = format!(
-        "cross step: {} starts from seed {}, profile {}, pilot at {}°\n",
+        "cross step: {} starts of {} robots from seed {}, profile {}, pilot at {}°\n",
         results.len(),
+        opts.robots,
         opts.seed,
         opts.profile.name(),
         opts.heading_deg
@@ -231,7 +241,7 @@ mod tests {
 
     #[test]
     fn a_start_is_drawn_from_its_seed_with_the_pilot_facing_the_gap() {
-        let a = fleet(7, 50.0, Profile::Lab);
+        let a = fleet(7, 50.0, Profile::Lab, 4);
         assert_eq!(a.robots.len(), 4);
         assert_eq!(a.robots[0].kind, RobotKind::Pilot);
         assert!((a.robots[0].pose[2] - 50f64.to_radians()).abs() < 1e-12);
@@ -243,18 +253,33 @@ mod tests {
             let m = r.mismatch.motor_gain;
             assert!((0.9..=1.1).contains(&m) && m != 1.0, "{m}");
         }
-        let b = fleet(7, 50.0, Profile::Lab);
+        let b = fleet(7, 50.0, Profile::Lab, 4);
         assert_eq!(
             a.robots.iter().map(|r| r.pose).collect::<Vec<_>>(),
             b.robots.iter().map(|r| r.pose).collect::<Vec<_>>()
         );
         assert_ne!(
             a.robots[1].pose,
-            fleet(8, 50.0, Profile::Lab).robots[1].pose
+            fleet(8, 50.0, Profile::Lab, 4).robots[1].pose
         );
         assert_eq!(
-            fleet(7, 50.0, Profile::Ideal).robots[1].mismatch,
+            fleet(7, 50.0, Profile::Ideal, 4).robots[1].mismatch,
             PlantMismatch::NONE
         );
+        // The largest fleet fits the start area, spaced, one pilot among non-pilots.
+        let big = fleet(7, 50.0, Profile::Lab, *ROBOTS.end());
+        assert_eq!(big.robots.len(), *ROBOTS.end());
+        assert_eq!(
+            big.robots
+                .iter()
+                .filter(|r| r.kind == RobotKind::Pilot)
+                .count(),
+            1
+        );
+        for (i, r) in big.robots.iter().enumerate() {
+            for q in &big.robots[i + 1..] {
+                assert!((r.pose[0] - q.pose[0]).hypot(r.pose[1] - q.pose[1]) > SPACING);
+            }
+        }
     }
 }
