@@ -203,6 +203,11 @@ pub fn result(stop: &CrossStop, advance: f64, backed_off_to: Option<f64>) -> Res
                 d.abs() * 1e3
             ))
         )),
+        CrossStop::Short => Err(format!(
+            "stopped at {:.0} mm, the end of the advance the gate proved, with a robot not \
+             across: the assembly left its heading",
+            advance * 1e3
+        )),
         CrossStop::PoseLost(id) => Err(format!(
             "stopped at {:.0} mm: no pose of robot {id}",
             advance * 1e3

@@ -28,8 +28,11 @@ use crate::drive::Twist;
 #[serde(rename_all = "snake_case")]
 pub enum CrossStop {
     /// It advanced the plan's required distance and the overshoot, and every member stands
-    /// across.
+    /// across ([`stands_across`]).
     Reached,
+    /// It advanced the plan's required distance and the overshoot, a robot still not
+    /// across (the assembly drifted off its heading): the plan proves nothing farther.
+    Short,
     /// The gate could not prove the measured assembly (its verdict).
     Gate(String),
     /// A robot of the assembly had no fresh pose.
@@ -77,6 +80,9 @@ pub struct CrossingController {
     /// Integral of the members' mean heading error while driving forward (rad·s): the heading
     /// hold's integral part ([`Self::twists`]).
     heading_integral: f64,
+    /// Driving forward: the heading that steers back onto the planned path
+    /// ([`Self::steer_to_path`]); `None`: the plan's heading.
+    path_heading: Option<f64>,
     progress: CrossProgress,
 }
 
@@ -106,6 +112,7 @@ impl CrossingController {
             backing_since: None,
             rate_hz: 100.0,
             heading_integral: 0.0,
+            path_heading: None,
             progress: CrossProgress {
                 advance: 0.0,
                 gate_checks: 0,
@@ -174,7 +181,7 @@ impl CrossingController {
         if kp <= 0.0 {
             return;
         }
-        let heading = self.heading();
+        let heading = self.path_heading.unwrap_or_else(|| self.heading());
         let errors: Vec<f64> = view
             .robots
             .iter()
@@ -193,9 +200,38 @@ impl CrossingController {
         self.heading_integral = (self.heading_integral + mean / self.rate_hz).clamp(-bound, bound);
     }
 
+    /// Driving forward, the heading to steer to: the plan proves the assembly on the straight
+    /// path from where it started along the heading, so the hold steers back onto that path,
+    /// not only parallel to it — h − atan(e / L) for the members' mean offset e to the left of
+    /// the path (m), with L = 3 v / k_p: the path's loop (time constant L / v) three times
+    /// slower than the heading's (1 / k_p), so that the two do not interact.
+    fn steer_to_path(&mut self, view: &FleetView) {
+        let kp = self.settings.heading_gain;
+        if kp <= 0.0 {
+            return;
+        }
+        let h = self.heading();
+        let n = [-h.sin(), h.cos()];
+        let (mut sum, mut count) = (0.0, 0usize);
+        for r in &view.robots {
+            let (Some(p), Some((_, p0))) = (r.pose, self.start.iter().find(|(id, _)| *id == r.id))
+            else {
+                continue;
+            };
+            sum += (p.x - p0[0]) * n[0] + (p.y - p0[1]) * n[1];
+            count += 1;
+        }
+        if count == 0 {
+            return;
+        }
+        let offset = sum / count as f64;
+        let look_ahead = 3.0 * self.settings.speed / kp;
+        self.path_heading = Some(h - (offset / look_ahead).atan());
+    }
+
     /// Every member of `view` stands wholly off the platform the plan starts on, as the
     /// planner's required advance asks ([`stands_across`]): an assembly that drifted off
-    /// its heading has not crossed at the planned advance and drives on.
+    /// its heading may not have crossed at the planned advance.
     fn across(&self, view: &FleetView) -> bool {
         let Some(start) = platform_at(&self.terrain, self.plan.start) else {
             return true;
@@ -265,9 +301,10 @@ impl CrossingController {
 
     fn stop(&mut self, t: f64, why: CrossStop) {
         self.hold = 0;
-        // Past the planned advance (an assembly that drifted off its heading drives on until
-        // every member stands across) the way back runs over the whole gap again, along a
-        // heading it no longer has: it stands where the gate stopped it.
+        // Backing off holds the plan's heading.
+        self.path_heading = None;
+        // A gate stop in the overshoot past the planned advance: the way back would run
+        // over the whole gap again; it stands where the gate stopped it.
         let before_goal = self.progress.advance < self.goal();
         if self.settings.back_off && before_goal && matches!(why, CrossStop::Gate(_)) {
             self.backing_since = Some(t);
@@ -309,7 +346,8 @@ impl CrossingController {
     }
 
     /// Twists of every robot of `view` at `speed` along the heading (0: standing) with each
-    /// non-pilot steered back to the heading (pilots drive straight only, THESIS 5.4.1): a
+    /// non-pilot steered back to the heading, or driving forward to the path's
+    /// ([`Self::steer_to_path`]; pilots drive straight only, THESIS 5.4.1): a
     /// proportional-integral heading hold, the integral part `integral` (rad·s). The gains
     /// make the hold critically damped on the heading's integrating dynamics, k_i = k_p² / 4:
     /// a pilot whose wheels pull it off the heading (plant mismatch) leaves no lasting error,
@@ -321,7 +359,7 @@ impl CrossingController {
         speed: f64,
         integral: f64,
     ) -> BTreeMap<RobotId, Twist> {
-        let heading = self.heading();
+        let heading = self.path_heading.unwrap_or_else(|| self.heading());
         let kp = self.settings.heading_gain;
         let ki = 0.25 * kp * kp;
         view.robots
@@ -393,8 +431,15 @@ impl Controller for CrossingController {
         };
         let d = self.advance(view);
         self.progress.advance = d;
-        if d >= self.goal() && self.across(view) {
-            self.stop(view.t, CrossStop::Reached);
+        if d >= self.goal() {
+            // The gate proved the drive this far and no farther: an assembly that drifted
+            // off its heading and still has a robot astride stops here all the same.
+            let why = if self.across(view) {
+                CrossStop::Reached
+            } else {
+                CrossStop::Short
+            };
+            self.stop(view.t, why);
             return self.twists(view, false, 0.0, 0.0);
         }
         if view.t - t0 >= self.time_limit_s() {
@@ -440,6 +485,7 @@ impl Controller for CrossingController {
             }
             self.next_check = d + self.settings.gate_every;
         }
+        self.steer_to_path(view);
         self.integrate_heading(view);
         let integral = self.heading_integral;
         self.twists(
@@ -683,17 +729,14 @@ mod tests {
     }
 
     #[test]
-    fn an_assembly_short_of_the_far_side_at_the_planned_advance_drives_on() {
+    fn the_drive_ends_at_the_proven_advance_reached_only_when_every_robot_is_across() {
         let (c, terrain, plan) = line_of_two();
         let settings = CrossSettings {
             live_gate: false,
             ..CrossSettings::default()
         };
         let links = vec![(LinkKind::Anchor, 1, 2)];
-        let mut c =
-            CrossingController::new(plan.clone(), terrain, c.params, settings, vec![1, 2], links);
         let x = plan.start[0];
-        let goal = c.goal();
         let two = |t: f64, d1: f64, d2: f64| {
             view(
                 t,
@@ -703,18 +746,36 @@ mod tests {
                 ],
             )
         };
-        c.update(&two(0.0, 0.0, 0.0));
-        // The mean advance reached, the back robot still on the near platform.
-        let on = c.update(&two(1.0, goal + 0.04, goal - 0.04));
-        assert!(c.progress().advance >= goal);
-        assert!(!c.stopped(), "{:?}", c.progress());
-        assert!(on.values().all(|t| t.v > 0.0), "{on:?}");
-        // Both across: reached.
-        c.update(&two(2.0, goal, goal));
+        let fresh = || {
+            CrossingController::new(
+                plan.clone(),
+                terrain.clone(),
+                c.params.clone(),
+                settings,
+                vec![1, 2],
+                links.clone(),
+            )
+        };
+        // The mean advance reached, the back robot still on the near platform: short.
+        let mut short = fresh();
+        let goal = short.goal();
+        short.update(&two(0.0, 0.0, 0.0));
+        let out = short.update(&two(1.0, goal + 0.04, goal - 0.04));
         assert!(
-            matches!(c.progress().stopped, Some((_, _, CrossStop::Reached))),
+            matches!(short.progress().stopped, Some((_, _, CrossStop::Short))),
             "{:?}",
-            c.progress()
+            short.progress()
+        );
+        assert!(out.values().all(|t| t.v == 0.0), "{out:?}");
+        assert!(!short.backing(), "no way back over the gap");
+        // Both across: reached.
+        let mut across = fresh();
+        across.update(&two(0.0, 0.0, 0.0));
+        across.update(&two(1.0, goal, goal));
+        assert!(
+            matches!(across.progress().stopped, Some((_, _, CrossStop::Reached))),
+            "{:?}",
+            across.progress()
         );
     }
 
@@ -746,5 +807,30 @@ mod tests {
         // Turning back harder than the proportional part alone, within its bound.
         assert!(last < 1.5 * first, "{first} -> {last}");
         assert!(last >= -kp * 1.1 - 1e-9, "{last}");
+    }
+
+    #[test]
+    fn an_assembly_beside_its_path_steers_back_onto_it() {
+        let (mut c, _, plan) = line_of_two();
+        let (x1, x2) = (plan.start[0], plan.start[0] - 0.05);
+        let at = |t: f64, dx: f64, dy: f64| {
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x1 + dx, dy, 0.0])),
+                    (2, RobotKind::NonPilot, Some([x2 + dx, dy, 0.0])),
+                ],
+            )
+        };
+        c.update(&at(0.0, 0.0, 0.0));
+        // On the heading, 10 mm left of the path: turns right, towards it.
+        let left = c.update(&at(0.01, 0.002, 0.01));
+        assert!(left[&2].omega < 0.0, "{:?}", left[&2]);
+        assert_eq!(left[&1].omega, 0.0, "a pilot drives straight only");
+        // Right of it: turns left.
+        let (mut c, _, _) = line_of_two();
+        c.update(&at(0.0, 0.0, 0.0));
+        let right = c.update(&at(0.01, 0.002, -0.01));
+        assert!(right[&2].omega > 0.0, "{:?}", right[&2]);
     }
 }
