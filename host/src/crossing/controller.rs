@@ -240,15 +240,8 @@ impl CrossingController {
             .iter()
             .filter(|r| self.members.contains(&r.id))
             .all(|r| {
-                r.pose.is_some_and(|p| {
-                    let pose = RobotPose {
-                        kind: r.kind,
-                        x: p.x,
-                        y: p.y,
-                        yaw: p.theta,
-                    };
-                    stands_across(&pose, &self.params, &self.terrain, start)
-                })
+                measured(r)
+                    .is_some_and(|pose| stands_across(&pose, &self.params, &self.terrain, start))
             })
     }
 
@@ -459,17 +452,7 @@ impl Controller for CrossingController {
                 .robots
                 .iter()
                 .filter(|r| self.members.contains(&r.id))
-                .filter_map(|r| {
-                    r.pose.map(|p| {
-                        let pose = RobotPose {
-                            kind: r.kind,
-                            x: p.x,
-                            y: p.y,
-                            yaw: p.theta,
-                        };
-                        (r.id, pose)
-                    })
-                })
+                .filter_map(|r| measured(r).map(|pose| (r.id, pose)))
                 .collect();
             let verdict = gate_now(
                 &poses,
@@ -508,6 +491,16 @@ impl Controller for CrossingController {
     fn hold_ms(&self, _id: RobotId) -> u16 {
         self.hold
     }
+}
+
+/// Robot `r` where it is measured, as the gate pictures it (`None`: no pose).
+fn measured(r: &crate::control::RobotView) -> Option<RobotPose> {
+    r.pose.map(|p| RobotPose {
+        kind: r.kind,
+        x: p.x,
+        y: p.y,
+        yaw: p.theta,
+    })
 }
 
 /// The gate's verdict on the assembly of robots `poses` (in their order) coupled by `held`,

@@ -162,13 +162,7 @@ mod tests {
     /// A pilot and three non-pilots growing a 2 × 2 mesh round the pilot, settle-free.
     fn grown_mesh() -> (Coordinator, BTreeMap<RobotId, RobotKind>) {
         let mut c = coordinator();
-        let mut robots = vec![
-            np(1, 0.0, 0.0, 0.0),
-            np(2, 0.3, 0.2, 1.0),
-            np(3, -0.3, 0.3, 2.0),
-            np(4, 0.2, -0.3, -1.0),
-        ];
-        robots[0].kind = RobotKind::Pilot;
+        let robots = pilot_and_three_scattered();
         let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
         c.form_grown(0.0, ShapeSpec::Mesh { rows: 2 }, &robots, None)
             .unwrap();

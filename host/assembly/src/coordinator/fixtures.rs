@@ -20,6 +20,18 @@ pub(super) fn four_apart() -> Vec<RobotState> {
     ]
 }
 
+/// Pilot 1 at the origin and three non-pilots scattered round it.
+pub(super) fn pilot_and_three_scattered() -> Vec<RobotState> {
+    let mut robots = vec![
+        np(1, 0.0, 0.0, 0.0),
+        np(2, 0.3, 0.2, 1.0),
+        np(3, -0.3, 0.3, 2.0),
+        np(4, 0.2, -0.3, -1.0),
+    ];
+    robots[0].kind = RobotKind::Pilot;
+    robots
+}
+
 pub(super) fn coordinator() -> Coordinator {
     Coordinator::from_params(&FleetParams::default())
 }

@@ -13,13 +13,7 @@ fn line_grown_round_pilot_1() -> (
     Vec<RobotId>,
 ) {
     let mut c = coordinator();
-    let mut robots = vec![
-        np(1, 0.0, 0.0, 0.0),
-        np(2, 0.3, 0.2, 1.0),
-        np(3, -0.3, 0.3, 2.0),
-        np(4, 0.2, -0.3, -1.0),
-    ];
-    robots[0].kind = RobotKind::Pilot;
+    let robots = pilot_and_three_scattered();
     let kinds = robots.iter().map(|r| (r.id, r.kind)).collect();
     let slots = c
         .form_grown(0.0, ShapeSpec::Line, &robots, None)
