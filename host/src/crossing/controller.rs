@@ -160,7 +160,12 @@ impl CrossingController {
     /// Advance of the robots of `view` since the drive started, along the heading (m): the
     /// mean over the robots with a pose (0 before the start).
     pub fn advance(&self, view: &FleetView) -> f64 {
-        let dir = self.direction();
+        self.moved_along(view, self.direction()).unwrap_or(0.0)
+    }
+
+    /// How far the robots of `view` moved since the drive started along unit vector `dir`
+    /// (m): the mean over the robots with a pose (`None`: none has one, or before the start).
+    fn moved_along(&self, view: &FleetView, dir: [f64; 2]) -> Option<f64> {
         let (mut sum, mut n) = (0.0, 0usize);
         for r in &view.robots {
             let (Some(p), Some((_, p0))) = (r.pose, self.start.iter().find(|(id, _)| *id == r.id))
@@ -170,7 +175,7 @@ impl CrossingController {
             sum += (p.x - p0[0]) * dir[0] + (p.y - p0[1]) * dir[1];
             n += 1;
         }
-        sum / n.max(1) as f64
+        (n > 0).then(|| sum / n as f64)
     }
 
     /// Adds one host period of the members' mean heading error to the heading hold's
@@ -211,20 +216,9 @@ impl CrossingController {
             return;
         }
         let h = self.heading();
-        let n = [-h.sin(), h.cos()];
-        let (mut sum, mut count) = (0.0, 0usize);
-        for r in &view.robots {
-            let (Some(p), Some((_, p0))) = (r.pose, self.start.iter().find(|(id, _)| *id == r.id))
-            else {
-                continue;
-            };
-            sum += (p.x - p0[0]) * n[0] + (p.y - p0[1]) * n[1];
-            count += 1;
-        }
-        if count == 0 {
+        let Some(offset) = self.moved_along(view, [-h.sin(), h.cos()]) else {
             return;
-        }
-        let offset = sum / count as f64;
+        };
         let look_ahead = 3.0 * self.settings.speed / kp;
         self.path_heading = Some(h - (offset / look_ahead).atan());
     }
