@@ -175,6 +175,18 @@ pub fn is_inserted(
     }
 }
 
+/// Some left knob of the robot at `knob` is seated in a right hole of the robot at `hole`
+/// (THESIS Fig. 5.12), by [`is_inserted`].
+pub fn knob_seated_between(knob: &Pose, hole: &Pose, t: &PairTolerances, g: &Geometry) -> bool {
+    [ConnPoint::LeftFront, ConnPoint::LeftBack]
+        .into_iter()
+        .flat_map(|k| [(k, ConnPoint::RightFront), (k, ConnPoint::RightBack)])
+        .any(|(k, h)| {
+            let m = measure(knob, k, hole, h, 0.0, g);
+            is_inserted(PairType::KnobHole, &m, t, g, 1.0)
+        })
+}
+
 /// Is a seated anchor (knob) still held, with tolerances scaled by `k`: an anchor may slide
 /// out over its travel and yaw over its range (THESIS 4.2.2, [`Coupling::anchor_held`]); a
 /// knob stays seated.

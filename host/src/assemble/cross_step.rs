@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use puzzlebot_assembly::scenario::Behaviour;
-use puzzlebot_assembly::{Coordinator, PairStatus, PairType, Scenario as AsmScenario};
+use puzzlebot_assembly::{Coordinator, PairStatus, PairType, Pose, Scenario as AsmScenario};
 use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
@@ -76,8 +76,8 @@ fn connected(c: &Coordinator) -> Vec<(LinkKind, RobotId, RobotId)> {
 /// further knobs that carry load all the same. A knob the test misses only makes the
 /// gate's picture weaker.
 pub fn seated_knobs(view: &FleetView, params: &FleetParams) -> Vec<(LinkKind, RobotId, RobotId)> {
-    use puzzlebot_assembly::pair::{is_inserted, measure};
-    use puzzlebot_assembly::{ConnPoint, PairTolerances, Pose};
+    use puzzlebot_assembly::pair::knob_seated_between;
+    use puzzlebot_assembly::PairTolerances;
     let g = &params.non_pilot.geometry;
     let tol = PairTolerances::from_params(g, &params.non_pilot.coupling);
     let poses: Vec<(RobotId, Pose)> = view
@@ -92,17 +92,7 @@ pub fn seated_knobs(view: &FleetView, params: &FleetParams) -> Vec<(LinkKind, Ro
             if a == b || (pa.x - pb.x).hypot(pa.y - pb.y) > reach {
                 continue;
             }
-            let seated = [ConnPoint::LeftFront, ConnPoint::LeftBack]
-                .iter()
-                .any(|&ka| {
-                    [ConnPoint::RightFront, ConnPoint::RightBack]
-                        .iter()
-                        .any(|&hb| {
-                            let m = measure(pa, ka, pb, hb, 0.0, g);
-                            is_inserted(PairType::KnobHole, &m, &tol, g, 1.0)
-                        })
-                });
-            if seated {
+            if knob_seated_between(pa, pb, &tol, g) {
                 out.push((LinkKind::Knob, *a, *b));
             }
         }
@@ -144,10 +134,11 @@ pub fn start(
         })
         .collect();
     // The assembly's heading: the mean of its robots' headings.
-    let (s, c) = members.iter().fold((0.0, 0.0), |(s, c), m| {
-        (s + m.1.yaw.sin(), c + m.1.yaw.cos())
-    });
-    let heading = s.atan2(c);
+    let yaws: Vec<Pose> = members
+        .iter()
+        .map(|m| Pose::new(m.1.x, m.1.y, m.1.yaw))
+        .collect();
+    let heading = puzzlebot_assembly::assign::mean_heading(&yaws);
     let links: Vec<(LinkKind, RobotId, RobotId)> = formed
         .links
         .iter()

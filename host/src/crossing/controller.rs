@@ -21,7 +21,7 @@ use serde::Serialize;
 
 use super::drive3d::{crossing_options, CrossSettings};
 use crate::control::{Controller, FleetView};
-use crate::drive::Twist;
+use crate::drive::{wrap_angle, Twist};
 
 /// Why a crossing drive stopped.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -192,10 +192,7 @@ impl CrossingController {
             .iter()
             .filter(|r| self.members.contains(&r.id))
             .filter_map(|r| r.pose)
-            .map(|p| {
-                let e = heading - p.theta;
-                e.sin().atan2(e.cos())
-            })
+            .map(|p| wrap_angle(heading - p.theta))
             .collect();
         if errors.is_empty() {
             return;
@@ -356,9 +353,8 @@ impl CrossingController {
                 let t = match (speed == 0.0 || !member, r.pose) {
                     (true, _) | (false, None) => Twist::new(0.0, 0.0),
                     (false, Some(p)) => {
-                        let e = heading - p.theta;
                         let turn = if steer && r.kind != RobotKind::Pilot {
-                            kp * e.sin().atan2(e.cos()) + ki * integral
+                            kp * wrap_angle(heading - p.theta) + ki * integral
                         } else {
                             0.0
                         };

@@ -19,6 +19,7 @@ use serde::Serialize;
 
 use super::episode::{draw_mismatch, Profile};
 use super::workers::map_parallel;
+use crate::assemble::fleets::MIN_START_SPACING;
 
 /// The scenario every start runs.
 pub fn scenario_file() -> PathBuf {
@@ -30,8 +31,6 @@ pub fn scenario_file() -> PathBuf {
 const AREA: ([f64; 2], f64) = ([-0.6, -0.12], 0.35);
 /// Fleet sizes the start area holds (the pilot among them).
 pub const ROBOTS: std::ops::RangeInclusive<usize> = 2..=8;
-/// Least distance between two robots' centres at the start (m).
-const SPACING: f64 = 0.12;
 /// The pilot's place (m): 0.35 m before the gap's near edge of `gap25.toml`.
 const PILOT_AT: [f64; 2] = [-0.05, 0.0];
 
@@ -94,7 +93,10 @@ pub fn fleet(
     while poses.len() < robots {
         let x = rng.random_range(AREA.0[0]..AREA.0[1]);
         let y = rng.random_range(-AREA.1..AREA.1);
-        if poses.iter().all(|p| (p[0] - x).hypot(p[1] - y) > SPACING) {
+        if poses
+            .iter()
+            .all(|p| (p[0] - x).hypot(p[1] - y) > MIN_START_SPACING)
+        {
             let yaw = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
             poses.push([x, y, yaw]);
         }
@@ -248,7 +250,7 @@ mod tests {
         for (i, r) in a.robots.iter().enumerate() {
             for q in &a.robots[i + 1..] {
                 let d = (r.pose[0] - q.pose[0]).hypot(r.pose[1] - q.pose[1]);
-                assert!(d > SPACING, "{d}");
+                assert!(d > MIN_START_SPACING, "{d}");
             }
             let m = r.mismatch.motor_gain;
             assert!((0.9..=1.1).contains(&m) && m != 1.0, "{m}");
@@ -278,7 +280,7 @@ mod tests {
         );
         for (i, r) in big.robots.iter().enumerate() {
             for q in &big.robots[i + 1..] {
-                assert!((r.pose[0] - q.pose[0]).hypot(r.pose[1] - q.pose[1]) > SPACING);
+                assert!((r.pose[0] - q.pose[0]).hypot(r.pose[1] - q.pose[1]) > MIN_START_SPACING);
             }
         }
     }

@@ -315,14 +315,7 @@ impl Coordinator {
                 if a == b || (pa.x - pb.x).hypot(pa.y - pb.y) > 2.0 * f64::from(g.length) {
                     continue;
                 }
-                let seated = [ConnPoint::LeftFront, ConnPoint::LeftBack]
-                    .into_iter()
-                    .flat_map(|k| [(k, ConnPoint::RightFront), (k, ConnPoint::RightBack)])
-                    .any(|(knob, hole)| {
-                        let m = measure(&pa, knob, &pb, hole, 0.0, &g);
-                        is_inserted(PairType::KnobHole, &m, &tol, &g, 1.0)
-                    });
-                if !seated {
+                if !crate::pair::knob_seated_between(&pa, &pb, &tol, &g) {
                     continue;
                 }
                 let planned = match (plan.goal_of(a), plan.goal_of(b)) {
