@@ -356,6 +356,10 @@ pub(crate) enum ExperimentCmd {
         /// Worker threads (0: one per core).
         #[arg(long, default_value_t = 0)]
         threads: usize,
+        /// Keep every start's run folder under <runs-dir>/cross-step-<seed>/ (for
+        /// `puzzlebot replay`), instead of removing it.
+        #[arg(long)]
+        keep_runs: bool,
         /// Print the results as JSON.
         #[arg(long)]
         json: bool,

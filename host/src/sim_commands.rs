@@ -192,6 +192,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                     heading_deg,
                     robots,
                     threads,
+                    keep_runs,
                     json,
                 },
         } => {
@@ -218,6 +219,7 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 heading_deg,
                 robots,
                 threads,
+                keep_runs,
             };
             let t0 = std::time::Instant::now();
             let o = opts.clone();

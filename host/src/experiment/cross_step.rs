@@ -50,6 +50,9 @@ pub struct Options {
     pub robots: usize,
     /// Worker threads (0: one per core).
     pub threads: usize,
+    /// Keep every start's run folder (telemetry, events, the crossing) under
+    /// `<runs_dir>/cross-step-<first seed>/<seed>/` instead of removing it.
+    pub keep_runs: bool,
 }
 
 /// How one start ended.
@@ -131,7 +134,7 @@ pub fn fleet(
 }
 
 /// Run every start; the scenario's run folders go to a temporary folder under `runs_dir`
-/// and are removed.
+/// and are removed, or with [`Options::keep_runs`] to `runs_dir/cross-step-<first seed>`.
 pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> {
     let g = FleetParams::default().non_pilot.geometry;
     let file = scenario_file();
@@ -148,7 +151,11 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let seeds: Vec<u64> = (0..opts.starts as u64).map(|i| opts.seed + i).collect();
     let bar = indicatif::ProgressBar::new(seeds.len() as u64);
-    let tmp = runs_dir.join(format!(".cross-step-{}", std::process::id()));
+    let tmp = if opts.keep_runs {
+        runs_dir.join(format!("cross-step-{}", opts.seed))
+    } else {
+        runs_dir.join(format!(".cross-step-{}", std::process::id()))
+    };
     let results = map_parallel(
         &seeds,
         opts.threads,
@@ -167,14 +174,20 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
                 300.0,
                 latency,
             );
-            std::fs::remove_dir_all(&dir).ok();
+            if !opts.keep_runs {
+                std::fs::remove_dir_all(&dir).ok();
+            }
             r.map(|r| classify(seed, &r, &terrain))
                 .map_err(|e| format!("seed {seed}: {e:#}"))
         },
         &|| bar.inc(1),
     );
     bar.finish_and_clear();
-    std::fs::remove_dir_all(&tmp).ok();
+    if opts.keep_runs {
+        eprintln!("run folders kept in {}", tmp.display());
+    } else {
+        std::fs::remove_dir_all(&tmp).ok();
+    }
     results
         .into_iter()
         .collect::<Result<Vec<_>, String>>()
