@@ -349,8 +349,8 @@ pub(crate) enum ExperimentCmd {
         /// The pilot's heading from the crossing direction (degrees).
         #[arg(long, default_value_t = 50.0)]
         heading_deg: f64,
-        /// Robots, the pilot among them (2-8): they grow a mesh of two rows (an odd number
-        /// leaves the rows uneven, which the cross step refuses to read as a mesh).
+        /// Robots, the pilot among them (2-8): they grow a mesh of two rows (of 3 and 2
+        /// for 5 robots, 4 and 3 for 7).
         #[arg(long, default_value_t = 4)]
         robots: usize,
         /// Worker threads (0: one per core).

@@ -114,23 +114,24 @@ impl Formed {
                 order.len()
             ));
         }
-        let per_row = rows[first].len();
-        if let Some(r) = rows.iter().find(|r| r.len() != per_row) {
-            return Err(format!(
-                "rows of {} and {} robots (robot {}): not a mesh",
-                per_row,
-                r.len(),
-                r[0]
-            ));
-        }
-        let shape = if rows.len() == 1 {
-            Shape::Line(per_row)
-        } else {
-            Shape::Mesh {
-                rows: rows.len(),
-                per_row,
-            }
-        };
+        // Full rows, or the rows of an uneven mesh as the formation lays them out: the
+        // longer rows first (rightmost), a shorter row nested behind its neighbour's front.
+        let sizes: Vec<usize> = order.iter().map(|&r| rows[r].len()).collect();
+        let shape = Shape::mesh_of(rows.len(), members.len())
+            .filter(|s| s.row_sizes() == sizes)
+            .ok_or_else(|| {
+                let listed: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
+                let want = Shape::mesh_of(rows.len(), members.len())
+                    .map_or_else(String::new, |s| {
+                        format!(" ({}, longer rows to the right)", s.name())
+                    });
+                format!(
+                    "rows of {} robots, right to left: not a mesh of {} in {} rows{want}",
+                    listed.join(", "),
+                    members.len(),
+                    rows.len(),
+                )
+            })?;
         let ids: Vec<RobotId> = order.iter().flat_map(|&r| rows[r].clone()).collect();
         let place = |id: RobotId| ids.iter().position(|&x| x == id).unwrap_or(0);
         let links = couplings
@@ -205,4 +206,82 @@ pub fn fit(layout: &[[f64; 2]], at: &[[f64; 2]]) -> (f64, usize) {
             ((p[0] - a[0]).hypot(p[1] - a[1]), k)
         })
         .fold((0.0, 0), |m, x| if x.0 > m.0 { x } else { m })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The poses (id → x, y, θ) of `shape`'s layout at `heading`, robot k + 1 at place k,
+    /// and its couplings by id.
+    #[allow(clippy::type_complexity)]
+    fn laid_out(
+        shape: Shape,
+        heading: f64,
+        g: &Geometry,
+    ) -> (
+        BTreeMap<RobotId, [f64; 3]>,
+        Vec<(LinkKind, RobotId, RobotId)>,
+    ) {
+        let (at, links) = formation::layout(shape, g);
+        let (s, c) = heading.sin_cos();
+        let poses = at
+            .iter()
+            .enumerate()
+            .map(|(k, o)| {
+                let id = k as RobotId + 1;
+                (
+                    id,
+                    [
+                        0.2 + c * o[0] - s * o[1],
+                        -0.1 + s * o[0] + c * o[1],
+                        heading,
+                    ],
+                )
+            })
+            .collect();
+        let couplings = links
+            .iter()
+            .map(|&(l, a, b)| {
+                let kind = match l {
+                    Link::Anchor => LinkKind::Anchor,
+                    Link::Knob => LinkKind::Knob,
+                };
+                (kind, a as RobotId + 1, b as RobotId + 1)
+            })
+            .collect();
+        (poses, couplings)
+    }
+
+    #[test]
+    fn uneven_meshes_are_read_with_their_rows_and_a_misfit_is_named() {
+        let g = Geometry::default();
+        for (rows, robots) in [(2, 5), (2, 7), (3, 7), (2, 4)] {
+            let shape = Shape::mesh_of(rows, robots).unwrap();
+            for heading in [0.0, 0.9, -2.5] {
+                let (poses, couplings) = laid_out(shape, heading, &g);
+                let kinds = poses.keys().map(|&id| (id, RobotKind::NonPilot)).collect();
+                let f = Formed::read(&poses, &kinds, &couplings, &g).unwrap();
+                assert_eq!(f.shape, shape);
+                assert_eq!(f.ids, (1..=robots as RobotId).collect::<Vec<_>>());
+                assert!(f.fit_error < 1e-9, "{}: {}", shape.name(), f.fit_error);
+            }
+        }
+        // A row of 3 with one robot knobbed beside it: not the 2 × 2 mesh of 4 robots.
+        let poses: BTreeMap<RobotId, [f64; 3]> = (1..=4)
+            .map(|id| (id, [-0.05 * f64::from(id), 0.0, 0.0]))
+            .collect();
+        let kinds = poses.keys().map(|&id| (id, RobotKind::NonPilot)).collect();
+        let couplings = [
+            (LinkKind::Anchor, 1, 2),
+            (LinkKind::Anchor, 2, 3),
+            (LinkKind::Knob, 2, 4),
+        ];
+        let err = Formed::read(&poses, &kinds, &couplings, &g).unwrap_err();
+        assert_eq!(
+            err,
+            "rows of 3, 1 robots, right to left: not a mesh of 4 in 2 rows (mesh 2x2, longer \
+             rows to the right)"
+        );
+    }
 }

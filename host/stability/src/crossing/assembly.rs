@@ -8,15 +8,23 @@ use puzzlebot_params::{FleetParams, RobotKind};
 
 /// Pilot index sets of `shape` for `pilots` pilots, one per distinct placement.
 pub fn pilot_sets(shape: Shape, pilots: usize) -> Vec<(PilotPlace, Vec<usize>)> {
-    let (rows, per_row) = shape.rows();
     if pilots == 0 {
         return vec![(PilotPlace::None, vec![])];
     }
-    let fronts: Vec<usize> = (0..rows).map(|r| r * per_row).collect();
-    let backs: Vec<usize> = (0..rows).map(|r| r * per_row + per_row - 1).collect();
+    let sizes = shape.row_sizes();
+    let starts: Vec<usize> = sizes
+        .iter()
+        .scan(0, |at, &n| {
+            let s = *at;
+            *at += n;
+            Some(s)
+        })
+        .collect();
+    let fronts: Vec<usize> = starts.clone();
+    let backs: Vec<usize> = starts.iter().zip(&sizes).map(|(s, n)| s + n - 1).collect();
     let pick = |order: Vec<usize>| {
         let mut s: Vec<usize> = Vec::new();
-        for k in order.into_iter().chain(0..rows * per_row) {
+        for k in order.into_iter().chain(0..shape.count()) {
             if s.len() == pilots {
                 break;
             }
@@ -114,12 +122,16 @@ pub fn formed_with(
 
 /// Where `pilots` sit in `shape`.
 pub(super) fn place_of(shape: Shape, pilots: &[usize]) -> PilotPlace {
-    let (_, per_row) = shape.rows();
-    let front = pilots.iter().any(|&k| k % per_row == 0);
-    let back = pilots.iter().any(|&k| k % per_row == per_row - 1);
+    let sizes = shape.row_sizes();
+    let at = |k: usize| shape.place_in_row(k).map(|(r, i)| (i, sizes[r]));
+    let front = pilots.iter().any(|&k| at(k).is_some_and(|(i, _)| i == 0));
+    let back = pilots
+        .iter()
+        .any(|&k| at(k).is_some_and(|(i, n)| n > 1 && i == n - 1));
+    let (_, longest) = shape.rows();
     match (pilots.is_empty(), front, back) {
         (true, _, _) => PilotPlace::None,
-        (_, true, true) if per_row > 1 => PilotPlace::FrontBack,
+        (_, true, true) if longest > 1 => PilotPlace::FrontBack,
         (_, true, _) => PilotPlace::Front,
         _ => PilotPlace::Back,
     }
