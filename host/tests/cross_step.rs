@@ -1,7 +1,8 @@
 //! A scenario's `cross` step end to end in lockstep: four robots grow a 2 × 2 mesh on the
 //! flat 2-D plant, the 3-D world takes over at the cross step, the host plans the mesh from
 //! where it stands and drives it across a gap a lone robot falls into; over a gap the gate
-//! cannot prove, the step is refused with the number that failed and nothing moves.
+//! cannot prove, the step is refused with the number that failed and nothing moves; before
+//! the crossing, a robot driven at the gap stops short of its edge.
 
 use std::path::{Path, PathBuf};
 
@@ -87,4 +88,33 @@ fn a_crossing_the_gate_cannot_prove_is_refused_before_anything_moves() {
     for (id, p) in &r.final_poses {
         assert!(p[0] < 0.30, "robot {id} at {p:?}");
     }
+}
+
+#[test]
+fn before_the_crossing_a_robot_driven_at_the_gap_stops_short_of_its_edge() {
+    // A lone robot 0.15 m before the gap is told to drive 0.3 m straight at it. The fleet
+    // stands on the cross step's terrain from the start: it would fall; the host stops it
+    // short of the edge, and the cross step then finds no assembly to plan.
+    let g = FleetParams::default().non_pilot.geometry;
+    let text = r#"
+name = "edge"
+[[step]]
+move = { velocity = [0.05, 0.0], duration_s = 6.0 }
+[[step]]
+cross = { terrain = "host/stability/examples/gap25.toml" }
+"#;
+    let scenario = AsmScenario::from_toml_str(&repo("edge.toml"), text, &g).unwrap();
+    let fleet = "seed = 5\n[[robots]]\nid = 1\nkind = \"NonPilot\"\npose = [0.15, 0.0, 0.0]\n";
+    let sim = puzzlebot_sim::Scenario::from_toml(&repo("edge_fleet.toml"), fleet).unwrap();
+    let runs = std::env::temp_dir().join(format!("pb-cross-step-edge-{}", std::process::id()));
+    let r = puzzlebot_host::assemble::run_scenario_lockstep(scenario, sim, &runs, 30.0).unwrap();
+    std::fs::remove_dir_all(&runs).ok();
+    assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
+    let x = r.final_poses[&1][0];
+    // Stopped within the guard's band (body reach 55 mm plus the look-ahead), not at once.
+    assert!((0.18..0.28).contains(&x), "stopped at x = {x}");
+    let RunState::Failed { index, reason } = &r.state else {
+        panic!("{:?}", r.state);
+    };
+    assert_eq!(*index, 1, "{reason}");
 }

@@ -29,12 +29,16 @@ pub struct AssemblyController {
     mpc: DistributedMpc,
     params: FleetParams,
     gate: Gate,
+    /// Keeps robots away from drops outside a cross step (`None` on the endless floor).
+    edge_guard: Option<super::edge_guard::EdgeGuard>,
     t0: Option<f64>,
     last_t: f64,
     /// Every coordinator event (pair status changes, steps), in order.
     pub events: Vec<Event>,
     /// Every gate stop (one per change of the stop state of an assembly).
     pub gate_stops: Vec<GateStop>,
+    /// Robots the edge guard stopped on the last tick.
+    edge_stopped: BTreeSet<RobotId>,
     /// MPC ticks whose solve failed for some robot (fallback/stop).
     pub mpc_failures: u64,
     /// Robots ever seen.
@@ -119,16 +123,26 @@ impl AssemblyController {
             ..MpcConfig::default()
         };
         let mpc = DistributedMpc::with_threads(cfg, 1)?;
+        // A fleet that crosses terrain stands on it from the start: every step's motion is
+        // gated on it, not only the crossing's.
+        #[cfg(feature = "sim")]
+        let gate = match super::cross_step::ground_of(&scenario, &terrains) {
+            Some(terrain) if gate.terrain.platforms.is_empty() => GateConfig { terrain, ..gate },
+            _ => gate,
+        };
+        let edge_guard = super::edge_guard::EdgeGuard::new(&gate.terrain, &params);
         let gate = Gate::new(gate, params.clone());
         Ok(AssemblyController {
             runner: ScenarioRunner::new(scenario, coordinator),
             mpc,
             params,
             gate,
+            edge_guard,
             t0: None,
             last_t: 0.0,
             events: Vec::new(),
             gate_stops: Vec::new(),
+            edge_stopped: BTreeSet::new(),
             mpc_failures: 0,
             seen: BTreeSet::new(),
             mpc_failure_reasons: BTreeMap::new(),
@@ -522,8 +536,9 @@ impl Controller for AssemblyController {
         }
         out.extend(direct);
         self.keep_apart(&tick, &predicted, &segments, &wait, &mut out);
-        let segs: BTreeMap<usize, Vec<RobotId>> =
-            segments.into_iter().filter(|(_, m)| m.len() > 1).collect();
+        // Every assembly and every lone robot that moves: over terrain a lone robot driven
+        // off an edge falls as surely as an assembly.
+        let segs: BTreeMap<usize, Vec<RobotId>> = segments.into_iter().collect();
         // Robots in a pair that is inserted or connected move with their partners.
         self.coupled = self
             .runner
@@ -537,6 +552,15 @@ impl Controller for AssemblyController {
         let dt = 1.0 / self.rate_hz();
         let stops = self.gate.apply(t, dt, &states, &maintain, &segs, &mut out);
         self.gate_stops.extend(stops);
+        if let Some(guard) = &self.edge_guard {
+            // The commands act after the latency and hold for up to two control periods.
+            let look = latency + 2.0 * dt;
+            let stopped = guard.apply(&states, &segs, look, &mut out);
+            if !stopped.is_empty() && self.edge_stopped.is_empty() {
+                tracing::warn!("robots {stopped:?} stopped short of a drop (outside a cross step)");
+            }
+            self.edge_stopped = stopped;
+        }
         self.poses.sent(view.t, &out);
         out
     }

@@ -36,6 +36,20 @@ pub fn load_terrains(scenario: &AsmScenario) -> anyhow::Result<BTreeMap<PathBuf,
     Ok(out)
 }
 
+/// The ground a fleet running `scenario` stands on from its start, when the scenario
+/// crosses terrain: its first cross step's terrain (from `terrains`, as
+/// [`load_terrains`] loaded them). The steps before the crossing move the robots on it too,
+/// so the host's gate keeps them from its edges and a simulated world has it from the start.
+pub fn ground_of(scenario: &AsmScenario, terrains: &BTreeMap<PathBuf, Terrain>) -> Option<Terrain> {
+    scenario
+        .steps
+        .iter()
+        .find_map(|step| match &step.behaviour {
+            Behaviour::Cross { terrain } => terrains.get(terrain).cloned(),
+            _ => None,
+        })
+}
+
 /// The couplings the host believes hold (kind, robot with the anchor / knob, robot with the
 /// opening / hole): the pairs the coordinator counts as connected, and every further knob
 /// the measured poses of `view` show seated ([`seated_knobs`]).

@@ -4,12 +4,13 @@
 //! the MPC's coupling constraints. Over terrain, the stability gate bounds every coupled
 //! assembly's advance along its heading ([`puzzlebot_stability::max_safe_advance`], SOCP
 //! paper §4, DESIGN.md §7): the host never commands an assembly past the safe distance; it
-//! stops the assembly and records why.
+//! stops the assembly and records why. Outside a cross step, no robot drives towards a
+//! drop ([`edge_guard`]).
 //!
 //! Also: `puzzlebot run SCENARIO.toml` ([`run_scenario`]) and `puzzlebot shape info`.
 //!
 //! Modules: [`controller`] (the controller loop), [`costs`] (task → MPC cost terms),
-//! [`gate`] (stability gate), [`latency`] (pose prediction over pose age and command
+//! [`gate`] (stability gate), [`edge_guard`] (keeping robots on their platform), [`latency`] (pose prediction over pose age and command
 //! latency), [`slow_steps`] (scenario speed warnings), [`report`] (run report and event
 //! files), [`fleet_run`] (running a scenario on a fleet config's robots); with the simulator
 //! (feature `sim`): `fleets` (simulated start fleets), `run` (running a scenario on a
@@ -24,6 +25,7 @@ pub mod controller;
 pub mod costs;
 #[cfg(feature = "sim")]
 pub mod cross_step;
+pub mod edge_guard;
 pub mod fleet_run;
 #[cfg(feature = "sim")]
 pub mod fleets;

@@ -30,6 +30,7 @@ pub async fn run_scenario(
     max_duration: f64,
     mut hook: Option<RunHook>,
 ) -> anyhow::Result<AssemblyReport> {
+    let sim = on_its_ground(&scenario, sim)?;
     let n = sim.robots.iter().filter(|r| !r.offline).count();
     let gate = GateConfig {
         terrain: sim.terrain.clone(),
@@ -64,6 +65,22 @@ pub async fn run_scenario(
     folder.write_json("assembly_report.json", &report)?;
     h.shutdown().await;
     Ok(report)
+}
+
+/// The simulated fleet `sim` on the ground `scenario` crosses ([`super::cross_step::ground_of`])
+/// when its own terrain is the endless floor: the robots stand on the terrain before the
+/// crossing as well, and a robot driven off an edge on the way falls there.
+fn on_its_ground(
+    scenario: &AsmScenario,
+    mut sim: puzzlebot_sim::Scenario,
+) -> anyhow::Result<puzzlebot_sim::Scenario> {
+    if sim.terrain.platforms.is_empty() {
+        let terrains = super::cross_step::load_terrains(scenario)?;
+        if let Some(ground) = super::cross_step::ground_of(scenario, &terrains) {
+            sim.terrain = ground;
+        }
+    }
+    Ok(sim)
 }
 
 /// Mixed into the scenario's seed for the 3-D part's command jitter (the flat part's is
@@ -103,6 +120,7 @@ pub fn run_scenario_lockstep_with(
     max_duration: f64,
     latency: Latency,
 ) -> anyhow::Result<AssemblyReport> {
+    let sim = on_its_ground(&scenario, sim)?;
     let gate = GateConfig {
         terrain: sim.terrain.clone(),
         ..GateConfig::default()

@@ -1,7 +1,8 @@
 //! The scenario `cross` step from fresh starts (`puzzlebot experiment cross-step`): a fleet
 //! of four robots unless told, the pilot set down facing the gap at a given heading and the
 //! non-pilots scattered behind it, run `host/assembly/data/scenarios/cross_gap.toml` in
-//! lockstep (grow a mesh of two rows on the 2-D plant, cross a 25 mm gap in the 3-D world),
+//! lockstep (grow a mesh of two rows on the 2-D plant, already on the gap's terrain, where a
+//! robot driven off the edge falls; cross the 25 mm gap in the 3-D world),
 //! each start drawn from its seed with the impairment profile's controller latency, link
 //! loss, motion capture and plant mismatch. Counts how many cross, back off after a gate
 //! stop, are refused before moving, stop elsewhere, fall or do not form.
