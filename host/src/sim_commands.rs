@@ -197,8 +197,9 @@ pub async fn run(cmd: Cmd, runs: PathBuf) -> anyhow::Result<()> {
                 },
         } => {
             use puzzlebot_host::experiment::{cross_step, episode};
-            if !(heading_deg.is_finite() && heading_deg.abs() < 86.0) {
-                anyhow::bail!("--heading-deg: within ±86°, got {heading_deg}");
+            let max = puzzlebot_stability::crossing::MAX_HEADING.to_degrees();
+            if !(heading_deg.is_finite() && heading_deg.abs() < max) {
+                anyhow::bail!("--heading-deg: within ±{max:.0}°, got {heading_deg}");
             }
             if !cross_step::ROBOTS.contains(&robots) {
                 anyhow::bail!(

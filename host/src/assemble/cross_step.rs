@@ -13,7 +13,9 @@ use puzzlebot_params::terrain::Terrain;
 use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
-use puzzlebot_stability::crossing::{load_terrain, plan_formed, plan_placed, Candidate};
+use puzzlebot_stability::crossing::{
+    load_terrain, plan_formed, plan_placed, Candidate, MAX_HEADING,
+};
 use puzzlebot_stability::puzzlebot::RobotPose;
 
 use crate::control::FleetView;
@@ -158,12 +160,23 @@ pub fn start(
         .iter()
         .map(|&(l, a, b)| (l.into(), formed.ids[a], formed.ids[b]))
         .collect();
+    if !heading.is_finite() || heading.abs() >= MAX_HEADING {
+        return Err(format!(
+            "refused: the {} heads {:.0}° from the crossing direction, where its straight \
+             path runs along the edge (the planner takes headings within ±{:.0}°); form it \
+             facing the gap",
+            formed.shape.name(),
+            heading.to_degrees(),
+            MAX_HEADING.to_degrees()
+        ));
+    }
     let a = assembly_of(&members, &links, g);
     let settings = CrossSettings::for_params(params);
     let opt = crossing_options(&settings, params);
     let pilots = formed.pilots();
+    // Nothing has moved: whatever keeps the planner from an answer is a refusal.
     let here = plan_placed(terrain, params, formed.shape, &pilots, &a, heading, &opt)
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| format!("refused: {e}"))?;
     if !here.crosses() {
         let better = plan_formed(terrain, params, formed.shape, &pilots, &formed.links, &opt)
             .ok()
@@ -231,6 +244,69 @@ mod tests {
     use crate::drive::PoseSample;
     use puzzlebot_params::formation::{self, Shape};
 
+    /// The robots of `shape`'s layout (robot k + 1 at place k, the first a pilot when
+    /// `pilot`) with its front robot at `front`, heading `heading`.
+    fn view_of(shape: Shape, front: [f64; 2], heading: f64, pilot: bool) -> FleetView {
+        let p = FleetParams::default();
+        let at = formation::layout(shape, &p.non_pilot.geometry).0;
+        let (s, c) = heading.sin_cos();
+        FleetView {
+            t: 0.0,
+            robots: at
+                .iter()
+                .enumerate()
+                .map(|(k, o)| RobotView {
+                    id: k as RobotId + 1,
+                    kind: if pilot && k == 0 {
+                        RobotKind::Pilot
+                    } else {
+                        RobotKind::NonPilot
+                    },
+                    pose: Some(PoseSample {
+                        t: 0.0,
+                        x: front[0] + c * o[0] - s * o[1],
+                        y: front[1] + s * o[0] + c * o[1],
+                        theta: heading,
+                    }),
+                    velocity: None,
+                })
+                .collect(),
+            latency_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn an_assembly_formed_along_the_edge_is_refused_with_its_heading() {
+        let p = FleetParams::default();
+        let terrain = Terrain::gap(0.30, 0.025, 1.0, 2.0, 0.0);
+        let mesh = Shape::Mesh {
+            rows: 2,
+            per_row: 2,
+        };
+        let links: Vec<(LinkKind, RobotId, RobotId)> =
+            formation::layout(mesh, &p.non_pilot.geometry)
+                .1
+                .iter()
+                .map(|&(l, a, b)| {
+                    let kind = match l {
+                        formation::Link::Anchor => LinkKind::Anchor,
+                        formation::Link::Knob => LinkKind::Knob,
+                    };
+                    (kind, a as RobotId + 1, b as RobotId + 1)
+                })
+                .collect();
+        let view = view_of(mesh, [0.0, 0.0], 1.6, true);
+        let why = start(&view, &links, &terrain, &p).err().expect("refused");
+        assert!(
+            why.starts_with("refused: the mesh 2x2 heads 92° from the crossing direction")
+                && why.contains("±86°"),
+            "{why}"
+        );
+        // Facing the gap at 50°, the same mesh is planned and proven.
+        let view = view_of(mesh, [0.0, 0.0], 50f64.to_radians(), true);
+        assert!(start(&view, &links, &terrain, &p).is_ok());
+    }
+
     #[test]
     fn the_knobs_a_mesh_layout_seats_are_read_from_its_poses() {
         let p = FleetParams::default();
@@ -238,28 +314,10 @@ mod tests {
             rows: 2,
             per_row: 2,
         };
-        let (at, links) = formation::layout(mesh, &p.non_pilot.geometry);
+        let links = formation::layout(mesh, &p.non_pilot.geometry).1;
         for heading in [0.0_f64, 0.7, -2.0] {
             let (s, c) = heading.sin_cos();
-            let view = FleetView {
-                t: 0.0,
-                robots: at
-                    .iter()
-                    .enumerate()
-                    .map(|(k, o)| RobotView {
-                        id: k as RobotId + 1,
-                        kind: RobotKind::NonPilot,
-                        pose: Some(PoseSample {
-                            t: 0.0,
-                            x: 0.3 + c * o[0] - s * o[1],
-                            y: -0.2 + s * o[0] + c * o[1],
-                            theta: heading,
-                        }),
-                        velocity: None,
-                    })
-                    .collect(),
-                latency_s: 0.0,
-            };
+            let view = view_of(mesh, [0.3, -0.2], heading, false);
             let mut got: Vec<(RobotId, RobotId)> = seated_knobs(&view, &p)
                 .into_iter()
                 .map(|k| {

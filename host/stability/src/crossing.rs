@@ -282,6 +282,10 @@ pub fn plan_placed(
     })
 }
 
+/// Largest heading from the crossing direction the planner takes (rad, about 86°): nearer
+/// to parallel with the edge, a straight path crosses it only after metres.
+pub const MAX_HEADING: f64 = 1.5;
+
 fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanError> {
     terrain
         .validate_solid()
@@ -289,11 +293,12 @@ fn check_inputs(terrain: &Terrain, opt: &CrossingOptions) -> Result<(), PlanErro
     if opt
         .headings
         .iter()
-        .any(|h| !h.is_finite() || h.abs() >= 1.5)
+        .any(|h| !h.is_finite() || h.abs() >= MAX_HEADING)
     {
-        return Err(PlanError::Input(
-            "headings: must be finite and within ±86°".into(),
-        ));
+        return Err(PlanError::Input(format!(
+            "headings: must be finite and within ±{:.0}°",
+            MAX_HEADING.to_degrees()
+        )));
     }
     Ok(())
 }
