@@ -210,18 +210,17 @@ impl Shape {
         }
         let l = f64::from(g.length);
         let w = f64::from(g.width);
-        let per_row = n.div_ceil(rows);
+        // The rows of the crossing planner's mesh (`params::formation`): full rows first, the
+        // last ones what is left, none empty; each row rear first, odd rows half a body ahead.
+        let sizes = puzzlebot_params::formation::Shape::mesh_of(rows, n)
+            .map(|s| s.row_sizes())
+            .unwrap_or_default();
         let mut poses = Vec::with_capacity(n);
-        let mut left = n;
-        for r in 0..rows {
-            // Spread the remainder so that no row is empty: the last rows take what is left.
-            let rows_after = rows - r - 1;
-            let count = per_row.min(left - rows_after);
+        for (r, &count) in sizes.iter().enumerate() {
             let offset = if r % 2 == 1 { 0.5 * l } else { 0.0 };
             for c in 0..count {
                 poses.push(Pose::new(offset + c as f64 * l, r as f64 * w, 0.0));
             }
-            left -= count;
         }
         Shape::from_poses("mesh", poses, g)
     }

@@ -24,6 +24,42 @@ fn mesh_rows_are_offset_by_half_a_body() {
 }
 
 #[test]
+fn the_coordinators_meshes_are_the_crossing_planners_layouts() {
+    // The cross step reads a formed mesh against `params::formation::layout`: every mesh
+    // the coordinator forms, even or not, must be that layout up to where it stands.
+    use puzzlebot_params::formation;
+    let g = g();
+    for (n, rows) in [(4, 2), (5, 2), (7, 2), (8, 2), (7, 3), (9, 3)] {
+        let ours: Vec<[f64; 2]> = Shape::mesh(n, rows, &g)
+            .unwrap()
+            .slots
+            .iter()
+            .map(|s| [s.pose.x, s.pose.y])
+            .collect();
+        let planned = formation::Shape::mesh_of(rows, n).unwrap();
+        let theirs = formation::layout(planned, &g).0;
+        let centred = |v: &[[f64; 2]]| -> Vec<[f64; 2]> {
+            let k = v.len() as f64;
+            let c = v
+                .iter()
+                .fold([0.0, 0.0], |s, p| [s[0] + p[0] / k, s[1] + p[1] / k]);
+            let mut out: Vec<[f64; 2]> = v.iter().map(|p| [p[0] - c[0], p[1] - c[1]]).collect();
+            out.sort_by(|a, b| a[1].total_cmp(&b[1]).then(a[0].total_cmp(&b[0])));
+            out
+        };
+        let (a, b) = (centred(&ours), centred(&theirs));
+        assert_eq!(a.len(), b.len());
+        for (p, q) in a.iter().zip(&b) {
+            assert!(
+                (p[0] - q[0]).hypot(p[1] - q[1]) < 1e-9,
+                "{}: {p:?} vs {q:?}",
+                planned.name()
+            );
+        }
+    }
+}
+
+#[test]
 fn pose_file_and_graph_file_give_the_same_shape() {
     let poses = "name = \"pair\"\n[[slot]]\nx = 0.0\ny = 0.0\n[[slot]]\nx = 0.05\ny = 0.0\nkind = \"pilot\"\n";
     let a = Shape::from_toml_str(Path::new("p.toml"), poses, &g()).unwrap();
