@@ -287,13 +287,7 @@ mod tests {
             formation::layout(mesh, &p.non_pilot.geometry)
                 .1
                 .iter()
-                .map(|&(l, a, b)| {
-                    let kind = match l {
-                        formation::Link::Anchor => LinkKind::Anchor,
-                        formation::Link::Knob => LinkKind::Knob,
-                    };
-                    (kind, a as RobotId + 1, b as RobotId + 1)
-                })
+                .map(|&(l, a, b)| (l.into(), a as RobotId + 1, b as RobotId + 1))
                 .collect();
         let view = view_of(mesh, [0.0, 0.0], 1.6, true);
         let why = start(&view, &links, &terrain, &p).err().expect("refused");

@@ -242,13 +242,7 @@ mod tests {
             .collect();
         let couplings = links
             .iter()
-            .map(|&(l, a, b)| {
-                let kind = match l {
-                    Link::Anchor => LinkKind::Anchor,
-                    Link::Knob => LinkKind::Knob,
-                };
-                (kind, a as RobotId + 1, b as RobotId + 1)
-            })
+            .map(|&(l, a, b)| (l.into(), a as RobotId + 1, b as RobotId + 1))
             .collect();
         (poses, couplings)
     }
