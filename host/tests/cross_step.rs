@@ -93,8 +93,8 @@ fn a_crossing_the_gate_cannot_prove_is_refused_before_anything_moves() {
 #[test]
 fn before_the_crossing_a_robot_driven_at_the_gap_stops_short_of_its_edge() {
     // A lone robot 0.15 m before the gap is told to drive 0.3 m straight at it. The fleet
-    // stands on the cross step's terrain from the start: it would fall; the host stops it
-    // short of the edge, and the cross step then finds no assembly to plan.
+    // stands on the cross step's terrain from the start: it would fall; the gate stops it
+    // where it still stands, and the cross step then finds no assembly to plan.
     let g = FleetParams::default().non_pilot.geometry;
     let text = r#"
 name = "edge"
@@ -111,10 +111,25 @@ cross = { terrain = "host/stability/examples/gap25.toml" }
     std::fs::remove_dir_all(&runs).ok();
     assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
     let x = r.final_poses[&1][0];
-    // Stopped within the guard's band (body reach 55 mm plus the look-ahead), not at once.
-    assert!((0.18..0.28).contains(&x), "stopped at x = {x}");
+    // Driven up to the edge, its centre still on the platform (edge at x = 0.30 m).
+    assert!((0.25..0.30).contains(&x), "stopped at x = {x}");
     let RunState::Failed { index, reason } = &r.state else {
         panic!("{:?}", r.state);
     };
     assert_eq!(*index, 1, "{reason}");
+}
+
+#[test]
+fn a_fleet_on_another_terrain_than_its_crossing_is_an_error() {
+    let g = FleetParams::default().non_pilot.geometry;
+    let file = repo("host/assembly/data/scenarios/cross_gap.toml");
+    let scenario = AsmScenario::from_file(&file, &g).unwrap();
+    let mut sim =
+        puzzlebot_sim::Scenario::from_file(&repo("hil-sim/scenarios/mesh_at_gap.toml")).unwrap();
+    sim.terrain = puzzlebot_params::terrain::Terrain::gap(0.5, 0.04, 1.0, 2.0, 0.0);
+    let runs = std::env::temp_dir().join(format!("pb-cross-step-ground-{}", std::process::id()));
+    let err = puzzlebot_host::assemble::run_scenario_lockstep(scenario, sim, &runs, 10.0)
+        .expect_err("two grounds");
+    std::fs::remove_dir_all(&runs).ok();
+    assert!(err.to_string().contains("terrain of its own"), "{err}");
 }

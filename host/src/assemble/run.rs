@@ -69,16 +69,23 @@ pub async fn run_scenario(
 
 /// The simulated fleet `sim` on the ground `scenario` crosses ([`super::cross_step::ground_of`])
 /// when its own terrain is the endless floor: the robots stand on the terrain before the
-/// crossing as well, and a robot driven off an edge on the way falls there.
+/// crossing as well, and a robot driven off an edge on the way falls there. A fleet with a
+/// terrain of its own other than the crossing's is an error: one world has one ground.
 fn on_its_ground(
     scenario: &AsmScenario,
     mut sim: puzzlebot_sim::Scenario,
 ) -> anyhow::Result<puzzlebot_sim::Scenario> {
-    if sim.terrain.platforms.is_empty() {
-        let terrains = super::cross_step::load_terrains(scenario)?;
-        if let Some(ground) = super::cross_step::ground_of(scenario, &terrains) {
-            sim.terrain = ground;
-        }
+    let terrains = super::cross_step::load_terrains(scenario)?;
+    match super::cross_step::ground_of(scenario, &terrains) {
+        Some(ground) if sim.terrain.platforms.is_empty() => sim.terrain = ground,
+        Some(ground) if ground != sim.terrain => anyhow::bail!(
+            "the simulated fleet has a terrain of its own ({} platforms) and scenario '{}' \
+             crosses another ({} platforms): give the fleet none, it stands on the crossing's",
+            sim.terrain.platforms.len(),
+            scenario.name,
+            ground.platforms.len()
+        ),
+        _ => {}
     }
     Ok(sim)
 }
