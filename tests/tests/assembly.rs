@@ -247,9 +247,11 @@ timeout_s = 45
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_gap_crossing_assembly_is_stopped_by_the_gate() {
-    // hil-sim/scenarios/gap_crossing.toml with a 120 mm gap: wider than half the line's
-    // length (75 mm), so the rigid line must stop before its centre of mass passes the edge.
+async fn a_line_driven_at_a_gap_outside_a_cross_step_stops_short_of_its_edge() {
+    // hil-sim/scenarios/gap_crossing.toml with a 120 mm gap: the line is told to drive on
+    // to x = 0.5 m, across it. Crossing is a cross step's work, proven from its start; a
+    // plain move stops the line within the edge guard's band of the edge (x = 0), where a
+    // turn or the capture's noise cannot yet put a wheel over it.
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../hil-sim/scenarios/gap_crossing.toml"
@@ -260,6 +262,12 @@ async fn a_gap_crossing_assembly_is_stopped_by_the_gate() {
         "[[0.12, -0.5], [1.0, -0.5], [1.0, 0.5], [0.12, 0.5]]",
     );
     assert!(text.contains("[0.12, 0.5]"), "far platform moved");
+    // The line 0.15 m further back: its front robot (the pilot, 3) at x = -0.25 m.
+    let text = text
+        .replace("[-0.20, 0.0, 0.0]", "[-0.35, 0.0, 0.0]")
+        .replace("[-0.15, 0.0, 0.0]", "[-0.30, 0.0, 0.0]")
+        .replace("[-0.10, 0.0, 0.0]", "[-0.25, 0.0, 0.0]");
+    assert!(text.contains("[-0.25, 0.0, 0.0]"), "line moved back");
     let fleet = sim(&text);
     let scenario = r#"
 name = "gap"
@@ -271,21 +279,13 @@ move = { go_to = [0.5, 0.0], tolerance = 0.02 }
 timeout_s = 10
 "#;
     let r = run("assembly-gap", scenario, fleet, 12.0, None).await;
-    let stop = r.gate_stops.first().expect("the gate stopped the assembly");
     assert!(r.fallen.is_empty(), "fell: {:?}", r.fallen);
-    // Rigid-body bound: the centre of mass of the line (equal masses: the centroid) must stay
-    // on the platform (edge at x = 0).
-    let cx = r.final_poses.values().map(|p| p[0]).sum::<f64>() / r.final_poses.len() as f64;
-    assert!(cx <= 0.0, "centroid {cx:.4} m past the edge");
+    // The front robot stops more than its body's reach from the edge, after driving most
+    // of the way towards it.
+    let front = r.final_poses[&3][0];
     assert!(
-        stop.centre[0] + stop.safe_advance <= 0.005,
-        "gate bound {:.4} + {:.4}",
-        stop.centre[0],
-        stop.safe_advance
-    );
-    assert!(
-        cx > -0.06,
-        "the assembly advanced towards the edge: centroid {cx:.4}"
+        (-0.15..-0.035).contains(&front),
+        "the line's front stopped at x = {front:.4} m"
     );
 }
 

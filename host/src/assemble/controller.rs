@@ -130,7 +130,10 @@ impl AssemblyController {
             Some(terrain) if gate.terrain.platforms.is_empty() => GateConfig { terrain, ..gate },
             _ => gate,
         };
-        let edge_guard = super::edge_guard::EdgeGuard::new(&gate.terrain, &params, gate.margin);
+        let edge_guard = gate
+            .edge_guard
+            .then(|| super::edge_guard::EdgeGuard::new(&gate.terrain, &params))
+            .flatten();
         let gate = Gate::new(gate, params.clone());
         Ok(AssemblyController {
             runner: ScenarioRunner::new(scenario, coordinator),

@@ -42,6 +42,9 @@ pub struct GateConfig {
     /// Distance kept back from the safe limit (m): covers latency (about two control
     /// periods at cruise speed) and pose noise.
     pub margin: f64,
+    /// Outside a cross step, keep robots from driving towards a drop at all
+    /// ([`super::edge_guard`]); off, assemblies drive up to the gate's limit.
+    pub edge_guard: bool,
 }
 
 impl Default for GateConfig {
@@ -50,6 +53,7 @@ impl Default for GateConfig {
             terrain: Terrain::flat(),
             step: 0.005,
             margin: 0.004,
+            edge_guard: true,
         }
     }
 }
