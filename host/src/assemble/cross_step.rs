@@ -230,6 +230,12 @@ pub fn result(stop: &CrossStop, advance: f64, backed_off_to: Option<f64>) -> Res
             "stopped at {:.0} mm: no pose of robot {id}",
             advance * 1e3
         )),
+        CrossStop::OffHeading(err) => Err(format!(
+            "stopped at {:.0} mm: the assembly turned {:.0}° off the heading the gate proved, \
+             beyond an anchor's yaw range",
+            advance * 1e3,
+            err.to_degrees()
+        )),
         CrossStop::TimedOut => Err(format!(
             "stopped at {:.0} mm: the crossing took too long",
             advance * 1e3

@@ -39,6 +39,10 @@ pub enum CrossStop {
     PoseLost(RobotId),
     /// It ran out of time: twice the time the advance takes at speed, and two seconds.
     TimedOut,
+    /// Its members' mean heading left the plan's by more than an anchor's yaw range (rad,
+    /// the error): the plan, and the gate's checks along its heading, no longer describe
+    /// the motion, and a member hanging at an anchor cannot follow.
+    OffHeading(f64),
 }
 
 /// Where a crossing drive is.
@@ -240,6 +244,19 @@ impl CrossingController {
         self.plan.heading_deg.to_radians()
     }
 
+    /// The members' mean measured heading less the plan's (rad); `None` without poses.
+    fn heading_error(&self, view: &FleetView) -> Option<f64> {
+        let (s, c) = view
+            .robots
+            .iter()
+            .filter(|r| self.members.contains(&r.id))
+            .filter_map(|r| r.pose)
+            .fold((0.0, 0.0), |(s, c), p| {
+                (s + p.theta.sin(), c + p.theta.cos())
+            });
+        (s != 0.0 || c != 0.0).then(|| wrap_angle(s.atan2(c) - self.heading()))
+    }
+
     fn direction(&self) -> [f64; 2] {
         let h = self.heading();
         [h.cos(), h.sin()]
@@ -414,6 +431,14 @@ impl Controller for CrossingController {
         };
         let d = self.advance(view);
         self.progress.advance = d;
+        // The live gate checks along the plan's heading: off it, its checks say nothing.
+        if let Some(err) = self.heading_error(view).filter(|_| self.settings.live_gate) {
+            let range = f64::from(self.params.non_pilot.coupling.anchor_yaw_range);
+            if err.abs() > range {
+                self.stop(view.t, CrossStop::OffHeading(err));
+                return self.twists(view, false, 0.0, 0.0);
+            }
+        }
         if d >= self.goal() {
             // The gate proved the drive this far and no farther: an assembly that drifted
             // off its heading and still has a robot astride stops here all the same.
@@ -662,6 +687,35 @@ mod tests {
         ));
         assert!(out.values().all(|t| *t == Twist::new(0.0, 0.0)));
         assert!(c.done(0.1));
+    }
+
+    #[test]
+    fn an_assembly_turned_past_an_anchors_yaw_range_stops() {
+        let (mut c, _, plan) = line_of_two();
+        let x = plan.start[0];
+        let two = |t: f64, yaw: f64| {
+            view(
+                t,
+                &[
+                    (1, RobotKind::Pilot, Some([x, 0.0, yaw])),
+                    (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, yaw])),
+                ],
+            )
+        };
+        c.update(&two(0.0, 0.0));
+        // 0.4 rad off (within the 0.5 rad range): steered, not stopped.
+        c.update(&two(0.1, 0.4));
+        assert!(!c.stopped());
+        // 0.6 rad off: the plan no longer describes the motion.
+        let out = c.update(&two(0.2, -0.6));
+        match c.progress().stopped {
+            Some((_, _, CrossStop::OffHeading(err))) => assert!((err + 0.6).abs() < 1e-9),
+            ref other => panic!("{other:?}"),
+        }
+        assert!(out.values().all(|t| *t == Twist::new(0.0, 0.0)));
+        let why = crate::assemble::cross_step::result(&CrossStop::OffHeading(-0.6), 0.004, None)
+            .unwrap_err();
+        assert!(why.contains("turned -34° off the heading"), "{why}");
     }
 
     #[test]
