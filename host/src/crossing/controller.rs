@@ -15,7 +15,8 @@ use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::{
-    assembly_level, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly, RobotPose,
+    assembly_level, body_corners, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly,
+    RobotPose,
 };
 use serde::Serialize;
 
@@ -244,6 +245,26 @@ impl CrossingController {
         self.plan.heading_deg.to_radians()
     }
 
+    /// Every member of `view` stands wholly on the platform the plan starts on: every
+    /// underside corner over it.
+    fn on_start(&self, view: &FleetView) -> bool {
+        let Some(start) = platform_at(&self.terrain, self.plan.start) else {
+            return false;
+        };
+        view.robots
+            .iter()
+            .filter(|r| self.members.contains(&r.id))
+            .all(|r| {
+                measured(r).is_some_and(|p| {
+                    let (s, c) = p.yaw.sin_cos();
+                    body_corners(p.kind, &self.params).iter().all(|b| {
+                        let q = [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]];
+                        platform_at(&self.terrain, q) == Some(start)
+                    })
+                })
+            })
+    }
+
     /// The members' mean measured heading less the plan's (rad); `None` without poses.
     fn heading_error(&self, view: &FleetView) -> Option<f64> {
         let (s, c) = view
@@ -431,10 +452,12 @@ impl Controller for CrossingController {
         };
         let d = self.advance(view);
         self.progress.advance = d;
-        // The live gate checks along the plan's heading: off it, its checks say nothing.
+        // The live gate checks along the plan's heading: off it, its checks say nothing. Still
+        // wholly on the start platform, the drive stops there; once the assembly bridges the
+        // edge, stopping astride is worse than driving on across, so it goes on.
         if let Some(err) = self.heading_error(view).filter(|_| self.settings.live_gate) {
             let range = f64::from(self.params.non_pilot.coupling.anchor_yaw_range);
-            if err.abs() > range {
+            if err.abs() > range && self.on_start(view) {
                 self.stop(view.t, CrossStop::OffHeading(err));
                 return self.twists(view, false, 0.0, 0.0);
             }
@@ -692,7 +715,8 @@ mod tests {
     #[test]
     fn an_assembly_turned_past_an_anchors_yaw_range_stops() {
         let (mut c, _, plan) = line_of_two();
-        let x = plan.start[0];
+        // 0.1 m back from where the plan starts: wholly on the start platform.
+        let x = plan.start[0] - 0.1;
         let two = |t: f64, yaw: f64| {
             view(
                 t,
@@ -716,6 +740,25 @@ mod tests {
         let why = crate::assemble::cross_step::result(&CrossStop::OffHeading(-0.6), 0.004, None)
             .unwrap_err();
         assert!(why.contains("turned -34° off the heading"), "{why}");
+        // Bridging the edge (its front robot at the plan's start, over the edge), it drives
+        // on: stopping astride is worse.
+        let (mut c, _, plan) = line_of_two();
+        let x = plan.start[0];
+        c.update(&view(
+            0.0,
+            &[
+                (1, RobotKind::Pilot, Some([x, 0.0, 0.0])),
+                (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, 0.0])),
+            ],
+        ));
+        c.update(&view(
+            0.1,
+            &[
+                (1, RobotKind::Pilot, Some([x, 0.0, -0.6])),
+                (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, -0.6])),
+            ],
+        ));
+        assert!(!c.stopped(), "{:?}", c.progress().stopped);
     }
 
     #[test]
