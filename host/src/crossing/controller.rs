@@ -225,20 +225,30 @@ impl CrossingController {
         self.path_heading = Some(h - (offset / look_ahead).atan());
     }
 
+    /// Whether `test` holds for every member's measured pose in `view` with the index of the
+    /// platform the plan starts on; `None` when no platform is under the plan's start.
+    fn every_member(
+        &self,
+        view: &FleetView,
+        test: impl Fn(&RobotPose, usize) -> bool,
+    ) -> Option<bool> {
+        let start = platform_at(&self.terrain, self.plan.start)?;
+        Some(
+            view.robots
+                .iter()
+                .filter(|r| self.members.contains(&r.id))
+                .all(|r| measured(r).is_some_and(|pose| test(&pose, start))),
+        )
+    }
+
     /// Every member of `view` stands wholly off the platform the plan starts on, as the
     /// planner's required advance asks ([`stands_across`]): an assembly that drifted off
     /// its heading may not have crossed at the planned advance.
     fn across(&self, view: &FleetView) -> bool {
-        let Some(start) = platform_at(&self.terrain, self.plan.start) else {
-            return true;
-        };
-        view.robots
-            .iter()
-            .filter(|r| self.members.contains(&r.id))
-            .all(|r| {
-                measured(r)
-                    .is_some_and(|pose| stands_across(&pose, &self.params, &self.terrain, start))
-            })
+        self.every_member(view, |pose, start| {
+            stands_across(pose, &self.params, &self.terrain, start)
+        })
+        .unwrap_or(true)
     }
 
     fn heading(&self) -> f64 {
@@ -248,21 +258,14 @@ impl CrossingController {
     /// Every member of `view` stands wholly on the platform the plan starts on: every
     /// underside corner over it.
     fn on_start(&self, view: &FleetView) -> bool {
-        let Some(start) = platform_at(&self.terrain, self.plan.start) else {
-            return false;
-        };
-        view.robots
-            .iter()
-            .filter(|r| self.members.contains(&r.id))
-            .all(|r| {
-                measured(r).is_some_and(|p| {
-                    let (s, c) = p.yaw.sin_cos();
-                    body_corners(p.kind, &self.params).iter().all(|b| {
-                        let q = [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]];
-                        platform_at(&self.terrain, q) == Some(start)
-                    })
-                })
+        self.every_member(view, |p, start| {
+            let (s, c) = p.yaw.sin_cos();
+            body_corners(p.kind, &self.params).iter().all(|b| {
+                let q = [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]];
+                platform_at(&self.terrain, q) == Some(start)
             })
+        })
+        .unwrap_or(false)
     }
 
     /// The members' mean measured heading less the plan's (rad); `None` without poses.
@@ -714,10 +717,8 @@ mod tests {
 
     #[test]
     fn an_assembly_turned_past_an_anchors_yaw_range_stops() {
-        let (mut c, _, plan) = line_of_two();
-        // 0.1 m back from where the plan starts: wholly on the start platform.
-        let x = plan.start[0] - 0.1;
-        let two = |t: f64, yaw: f64| {
+        // The line of two with its front robot at `x`, both at `yaw`.
+        let two = |t: f64, x: f64, yaw: f64| {
             view(
                 t,
                 &[
@@ -726,12 +727,15 @@ mod tests {
                 ],
             )
         };
-        c.update(&two(0.0, 0.0));
+        let (mut c, _, plan) = line_of_two();
+        // 0.1 m back from where the plan starts: wholly on the start platform.
+        let x = plan.start[0] - 0.1;
+        c.update(&two(0.0, x, 0.0));
         // 0.4 rad off (within the 0.5 rad range): steered, not stopped.
-        c.update(&two(0.1, 0.4));
+        c.update(&two(0.1, x, 0.4));
         assert!(!c.stopped());
         // 0.6 rad off: the plan no longer describes the motion.
-        let out = c.update(&two(0.2, -0.6));
+        let out = c.update(&two(0.2, x, -0.6));
         match c.progress().stopped {
             Some((_, _, CrossStop::OffHeading(err))) => assert!((err + 0.6).abs() < 1e-9),
             ref other => panic!("{other:?}"),
@@ -743,21 +747,8 @@ mod tests {
         // Bridging the edge (its front robot at the plan's start, over the edge), it drives
         // on: stopping astride is worse.
         let (mut c, _, plan) = line_of_two();
-        let x = plan.start[0];
-        c.update(&view(
-            0.0,
-            &[
-                (1, RobotKind::Pilot, Some([x, 0.0, 0.0])),
-                (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, 0.0])),
-            ],
-        ));
-        c.update(&view(
-            0.1,
-            &[
-                (1, RobotKind::Pilot, Some([x, 0.0, -0.6])),
-                (2, RobotKind::NonPilot, Some([x - 0.05, 0.0, -0.6])),
-            ],
-        ));
+        c.update(&two(0.0, plan.start[0], 0.0));
+        c.update(&two(0.1, plan.start[0], -0.6));
         assert!(!c.stopped(), "{:?}", c.progress().stopped);
     }
 
