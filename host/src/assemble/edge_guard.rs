@@ -3,8 +3,8 @@
 //! that turns (a non-pilot's turn on the spot is a pivot about a wheel, which moves its
 //! centre), that docks with small back-and-forth corrections, or whose heading changes between
 //! ticks, and its 4 mm margin is thin against `harsh` latency and capture noise: a pair driven
-//! up to its limit and jostled there for a minute fell in. Near a drop each of those can put a
-//! wheel over the edge: a mesh formed a few body lengths from a gap loses a docking robot into
+//! up to its limit and jostled there can fall in. Near a drop each of those can put a wheel
+//! over the edge: a mesh formed a few body lengths from a gap can lose a docking robot into
 //! it. So within a band around every drop, a group of coupled robots (or a lone robot) may
 //! only drive straight away from the drop; any other command of the group is replaced by a
 //! stop. Crossing a drop is the cross step's work, proven by the gate first
@@ -110,17 +110,19 @@ impl EdgeGuard {
                 .map(|c| c.v.abs())
                 .fold(0.0, f64::max);
             let band = self.band(v, lookahead_s);
-            let near: Vec<&RobotState> = members
+            // The members near a drop, each with its clearance.
+            let near: Vec<(&RobotState, f64)> = members
                 .iter()
                 .filter_map(|id| states.iter().find(|s| s.id == *id))
-                .filter(|s| self.clearance(s.pose.xy(), band) < band)
+                .map(|s| (s, self.clearance(s.pose.xy(), band)))
+                .filter(|&(_, clear)| clear < band)
                 .collect();
             if near.is_empty() {
                 continue;
             }
             // Away from the drop: straight (a turn may pivot the robot towards it), and
             // every member near it ends the look-ahead with more clearance than it has.
-            let away = near.iter().all(|s| {
+            let away = near.iter().all(|&(s, clear)| {
                 let Some(c) = out.get(&s.id) else {
                     return true;
                 };
@@ -130,7 +132,7 @@ impl EdgeGuard {
                 let d = c.v * lookahead_s.max(1e-3);
                 let (sn, cs) = s.pose.yaw.sin_cos();
                 let to = [s.pose.x + d * cs, s.pose.y + d * sn];
-                self.clearance(to, band) > self.clearance(s.pose.xy(), band)
+                self.clearance(to, band) > clear
             });
             if away {
                 continue;

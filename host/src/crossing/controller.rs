@@ -15,14 +15,16 @@ use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
 use puzzlebot_stability::puzzlebot::{
-    assembly_level, body_corners, build_model_with, judge_model, Pair, PairKind, PuzzleAssembly,
-    RobotPose,
+    assembly_level, body_corners, build_model_with, judge_model, world, Pair, PairKind,
+    PuzzleAssembly, RobotPose,
 };
 use serde::Serialize;
 
 use super::drive3d::{crossing_options, CrossSettings};
 use crate::control::{Controller, FleetView};
 use crate::drive::{wrap_angle, Twist};
+use puzzlebot_assembly::assign::mean_heading;
+use puzzlebot_assembly::Pose;
 
 /// Why a crossing drive stopped.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -259,26 +261,22 @@ impl CrossingController {
     /// underside corner over it.
     fn on_start(&self, view: &FleetView) -> bool {
         self.every_member(view, |p, start| {
-            let (s, c) = p.yaw.sin_cos();
-            body_corners(p.kind, &self.params).iter().all(|b| {
-                let q = [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]];
-                platform_at(&self.terrain, q) == Some(start)
-            })
+            body_corners(p.kind, &self.params)
+                .iter()
+                .all(|&b| platform_at(&self.terrain, world(p, b)) == Some(start))
         })
         .unwrap_or(false)
     }
 
     /// The members' mean measured heading less the plan's (rad); `None` without poses.
     fn heading_error(&self, view: &FleetView) -> Option<f64> {
-        let (s, c) = view
+        let poses: Vec<Pose> = view
             .robots
             .iter()
             .filter(|r| self.members.contains(&r.id))
-            .filter_map(|r| r.pose)
-            .fold((0.0, 0.0), |(s, c), p| {
-                (s + p.theta.sin(), c + p.theta.cos())
-            });
-        (s != 0.0 || c != 0.0).then(|| wrap_angle(s.atan2(c) - self.heading()))
+            .filter_map(|r| r.pose.map(|p| Pose::new(p.x, p.y, p.theta)))
+            .collect();
+        (!poses.is_empty()).then(|| wrap_angle(mean_heading(&poses) - self.heading()))
     }
 
     fn direction(&self) -> [f64; 2] {

@@ -117,21 +117,19 @@ impl Formed {
         // Full rows, or the rows of an uneven mesh as the formation lays them out: the
         // longer rows first (rightmost), a shorter row nested behind its neighbour's front.
         let sizes: Vec<usize> = order.iter().map(|&r| rows[r].len()).collect();
-        let shape = Shape::mesh_of(rows.len(), members.len())
-            .filter(|s| s.row_sizes() == sizes)
-            .ok_or_else(|| {
-                let listed: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
-                let want = Shape::mesh_of(rows.len(), members.len())
-                    .map_or_else(String::new, |s| {
-                        format!(" ({}, longer rows to the right)", s.name())
-                    });
-                format!(
-                    "rows of {} robots, right to left: not a mesh of {} in {} rows{want}",
-                    listed.join(", "),
-                    members.len(),
-                    rows.len(),
-                )
-            })?;
+        let expected = Shape::mesh_of(rows.len(), members.len());
+        let shape = expected.filter(|s| s.row_sizes() == sizes).ok_or_else(|| {
+            let listed: Vec<String> = sizes.iter().map(|n| n.to_string()).collect();
+            let want = expected.map_or_else(String::new, |s| {
+                format!(" ({}, longer rows to the right)", s.name())
+            });
+            format!(
+                "rows of {} robots, right to left: not a mesh of {} in {} rows{want}",
+                listed.join(", "),
+                members.len(),
+                rows.len(),
+            )
+        })?;
         let ids: Vec<RobotId> = order.iter().flat_map(|&r| rows[r].clone()).collect();
         let place = |id: RobotId| ids.iter().position(|&x| x == id).unwrap_or(0);
         let links = couplings

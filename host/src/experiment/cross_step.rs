@@ -46,8 +46,8 @@ pub struct Options {
     pub profile: Profile,
     /// The pilot's heading from the crossing direction (degrees).
     pub heading_deg: f64,
-    /// Robots in the fleet, the pilot among them ([`ROBOTS`]); an even number forms a
-    /// mesh of two full rows.
+    /// Robots in the fleet, the pilot among them ([`ROBOTS`]); they form a mesh of two
+    /// rows, uneven for an odd number (3 + 2 for five).
     pub robots: usize,
     /// Worker threads (0: one per core).
     pub threads: usize,

@@ -252,7 +252,8 @@ pub fn contact_points(kind: RobotKind, params: &FleetParams) -> Vec<([f64; 2], b
     out
 }
 
-pub(crate) fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
+/// The world position of body-frame point `b` (m) of robot `p`.
+pub fn world(p: &RobotPose, b: [f64; 2]) -> [f64; 2] {
     let (s, c) = p.yaw.sin_cos();
     [p.x + c * b[0] - s * b[1], p.y + s * b[0] + c * b[1]]
 }
