@@ -223,7 +223,8 @@ pub fn result(stop: &CrossStop, advance: f64, backed_off_to: Option<f64>) -> Res
         )),
         CrossStop::Short => Err(format!(
             "stopped at {:.0} mm, the end of the advance the gate proved, with a robot not \
-             across: the assembly left its heading",
+             across: the assembly left its heading, and the gate proves no advance from where \
+             it stands that takes every robot across (the drive extends itself once)",
             advance * 1e3
         )),
         CrossStop::PoseLost(id) => Err(format!(

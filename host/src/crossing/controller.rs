@@ -14,6 +14,7 @@ use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
+use puzzlebot_stability::puzzlebot::max_safe_advance_with;
 use puzzlebot_stability::puzzlebot::{
     assembly_level, body_corners, build_model_with, judge_model, world, Pair, PairKind,
     PuzzleAssembly, RobotPose,
@@ -34,7 +35,9 @@ pub enum CrossStop {
     /// across ([`stands_across`]).
     Reached,
     /// It advanced the plan's required distance and the overshoot, a robot still not
-    /// across (the assembly drifted off its heading): the plan proves nothing farther.
+    /// across (the assembly drifted off its heading), and the gate could not prove the
+    /// further advance that takes it across from where it stands
+    /// ([`CrossingController::extension`]), or that advance left it short too.
     Short,
     /// The gate could not prove the measured assembly (its verdict).
     Gate(String),
@@ -90,6 +93,9 @@ pub struct CrossingController {
     /// Driving forward: the heading that steers back onto the planned path
     /// ([`Self::steer_to_path`]); `None`: the plan's heading.
     path_heading: Option<f64>,
+    /// The advance the drive ends at once extended past the plan's
+    /// ([`CrossingController::extension`], m).
+    extended_to: Option<f64>,
     progress: CrossProgress,
 }
 
@@ -120,6 +126,7 @@ impl CrossingController {
             rate_hz: 100.0,
             heading_integral: 0.0,
             path_heading: None,
+            extended_to: None,
             progress: CrossProgress {
                 advance: 0.0,
                 gate_checks: 0,
@@ -138,9 +145,63 @@ impl CrossingController {
         self
     }
 
-    /// Advance at which the drive ends: the plan's required advance and the overshoot (m).
+    /// Advance at which the drive ends: the plan's required advance and the overshoot, or
+    /// the extension's end once extended ([`Self::extension`]) (m).
     pub fn goal(&self) -> f64 {
-        self.plan.required + self.settings.overshoot
+        self.extended_to
+            .unwrap_or(self.plan.required + self.settings.overshoot)
+    }
+
+    /// At the end of the planned advance with a robot not across (the assembly drifted off
+    /// its straight path): the further advance along the heading that takes every member,
+    /// as measured, across ([`stands_across`]), when the gate proves it from the measured
+    /// poses with the planner's own check ([`max_safe_advance_with`], nowhere a stretch
+    /// proven only at speed, so the drive may stop anywhere in it). At most the assembly's
+    /// own extent along the heading and a body diagonal: farther, it is not a straggler.
+    fn extension(&self, view: &FleetView) -> Option<f64> {
+        let start = platform_at(&self.terrain, self.plan.start)?;
+        let poses: Vec<(RobotId, RobotPose)> = view
+            .robots
+            .iter()
+            .filter(|r| self.members.contains(&r.id))
+            .filter_map(|r| measured(r).map(|pose| (r.id, pose)))
+            .collect();
+        if poses.len() != self.members.len() {
+            return None;
+        }
+        let [c, s] = self.direction();
+        let along: Vec<f64> = poses.iter().map(|(_, p)| p.x * c + p.y * s).collect();
+        let g = &self.params.non_pilot.geometry;
+        let extent = along.iter().copied().fold(f64::MIN, f64::max)
+            - along.iter().copied().fold(f64::MAX, f64::min)
+            + f64::from(g.length).hypot(f64::from(g.width));
+        let across = |e: f64| {
+            poses.iter().all(|(_, p)| {
+                stands_across(
+                    &p.translated([c * e, s * e]),
+                    &self.params,
+                    &self.terrain,
+                    start,
+                )
+            })
+        };
+        let step = 0.001;
+        let e = (0..=(extent / step).ceil() as usize)
+            .map(|k| k as f64 * step)
+            .find(|&e| across(e))?;
+        let a = assembly_of(&poses, &self.links, g);
+        let opt = self.opt.advance_options(e);
+        let horizon = opt.horizon;
+        let proven = max_safe_advance_with(
+            &a,
+            &self.params,
+            &self.terrain,
+            self.heading(),
+            self.opt.step,
+            opt,
+        )
+        .ok()?;
+        (proven.distance >= horizon - 1e-9 && proven.bridged.is_empty()).then_some(e)
     }
 
     /// Longest the drive may take (s): twice the time of its advance at speed, and two
@@ -464,15 +525,25 @@ impl Controller for CrossingController {
             }
         }
         if d >= self.goal() {
-            // The gate proved the drive this far and no farther: an assembly that drifted
-            // off its heading and still has a robot astride stops here all the same.
-            let why = if self.across(view) {
-                CrossStop::Reached
-            } else {
-                CrossStop::Short
-            };
-            self.stop(view.t, why);
-            return self.twists(view, false, 0.0, 0.0);
+            // The gate proved the drive this far and no farther. An assembly that drifted
+            // off its heading and still has a robot astride drives on once, as far as the
+            // gate proves from where it stands takes every robot across; else it stops.
+            if self.across(view) {
+                self.stop(view.t, CrossStop::Reached);
+                return self.twists(view, false, 0.0, 0.0);
+            }
+            match self
+                .extended_to
+                .is_none()
+                .then(|| self.extension(view))
+                .flatten()
+            {
+                Some(e) => self.extended_to = Some(d + e + self.settings.overshoot),
+                None => {
+                    self.stop(view.t, CrossStop::Short);
+                    return self.twists(view, false, 0.0, 0.0);
+                }
+            }
         }
         if view.t - t0 >= self.time_limit_s() {
             self.stop(view.t, CrossStop::TimedOut);

@@ -51,6 +51,7 @@ impl Coordinator {
         let plan = assign_around_lane(&spec, &states, seed, lane, &self.geometry)?;
         let heading = Some(plan.heading);
         self.grow_lane = lane;
+        self.grow_origin = states.iter().find(|r| r.id == seed).map(|r| r.pose.xy());
         Ok(self.start_form(t, plan, heading, Some(seed)))
     }
 
@@ -190,6 +191,27 @@ impl Coordinator {
         if self.closing(self.now, self.complete_since) {
             self.close_open(tasks);
         }
+    }
+
+    /// Growing: a bent assembly of `members` that straightens along `heading` (rad) drives
+    /// backwards, led by its rear robot, when the seed among them stands ahead of where it
+    /// stood at the formation's start. Either way a towed row straightens behind its head,
+    /// so the sense is free; chosen so, straightening keeps the assembly about its start
+    /// instead of carrying it, pair after pair, towards what lies ahead (a gap's edge, a
+    /// wall).
+    pub(super) fn straighten_backwards(&self, members: &[RobotId], heading: f64) -> bool {
+        let (Some(origin), Some(seed)) = (self.grow_origin, self.grow) else {
+            return false;
+        };
+        let Some(at) = members
+            .contains(&seed)
+            .then(|| self.robots.get(&seed))
+            .flatten()
+        else {
+            return false;
+        };
+        let (s, c) = heading.sin_cos();
+        (at.pose.x - origin[0]) * c + (at.pose.y - origin[1]) * s > 0.0
     }
 }
 

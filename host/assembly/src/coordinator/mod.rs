@@ -151,6 +151,9 @@ pub struct Coordinator {
     /// Growing: where the partner of a side pair stood when its assembly first drove ahead to
     /// straighten, per pair.
     straighten_from: std::cell::RefCell<BTreeMap<usize, [f64; 2]>>,
+    /// Growing: where the seed stood when the formation started; a bent assembly
+    /// straightens towards it ([`Coordinator::straighten_backwards`]).
+    grow_origin: Option<[f64; 2]>,
     /// Growing: where each held member of the grown assembly was first held
     /// ([`Coordinator::keep_grown`]).
     kept_at: BTreeMap<RobotId, Pose2>,
@@ -194,6 +197,7 @@ impl Coordinator {
             grow: None,
             grow_lane: None,
             straighten_from: Default::default(),
+            grow_origin: None,
             kept_at: BTreeMap::new(),
             now: 0.0,
             wiggle_turns: BTreeMap::new(),

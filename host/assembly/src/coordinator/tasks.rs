@@ -186,24 +186,33 @@ impl Coordinator {
                             && self.chain_bend(&members[&seg]) > self.cfg.dock.max_bend
                         {
                             // A bent chain's corners block the approach lane: the assembly
-                            // first drives straight ahead, led by its front robot (a train
-                            // straightens behind its head; pushed from behind it jackknifes);
-                            // the docking robot waits.
+                            // first drives straight, led by its robot at the end it drives
+                            // towards (a train straightens behind its head; pushed from
+                            // behind it jackknifes); the docking robot waits. It drives
+                            // back when it stands ahead of where the formation started, so
+                            // straightening does not carry it off towards whatever lies
+                            // ahead.
                             let head = self.robots.get(&other).map(|k| k.pose).and_then(|po| {
+                                let sense = if self.straighten_backwards(&members[&seg], po.yaw) {
+                                    -1.0
+                                } else {
+                                    1.0
+                                };
                                 let (s, c) = po.yaw.sin_cos();
                                 members[&seg]
                                     .iter()
                                     .filter_map(|id| self.robots.get(id).map(|k| (*id, k.pose)))
                                     .max_by(|a, b| {
-                                        let f = |p: &Pose2| p.x * c + p.y * s;
+                                        let f = |p: &Pose2| sense * (p.x * c + p.y * s);
                                         f(&a.1).total_cmp(&f(&b.1))
                                     })
+                                    .map(|(id, k)| (id, k, sense))
                             });
-                            if let Some((lead, k)) = head {
+                            if let Some((lead, k, sense)) = head {
                                 let ahead = (0..=self.cfg.horizon_steps)
                                     .map(|j| {
                                         let x = 0.01 + j as f64 * self.cfg.dock.speed * self.cfg.dt;
-                                        k.compose(&Pose2::new(x, 0.0, 0.0))
+                                        k.compose(&Pose2::new(sense * x, 0.0, 0.0))
                                     })
                                     .collect();
                                 lead_segment(

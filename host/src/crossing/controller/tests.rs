@@ -204,7 +204,7 @@ fn the_drive_ends_at_the_proven_advance_reached_only_when_every_robot_is_across(
             ],
         )
     };
-    let fresh = || {
+    let fresh = |terrain: &Terrain| {
         CrossingController::new(
             plan.clone(),
             terrain.clone(),
@@ -214,11 +214,21 @@ fn the_drive_ends_at_the_proven_advance_reached_only_when_every_robot_is_across(
             links.clone(),
         )
     };
-    // The mean advance reached, the back robot still on the near platform: short.
-    let mut short = fresh();
+    // The mean advance reached, the back robot still on the near platform: it drives on,
+    // as far as the gate proves from where the robots stand takes the back one across.
+    let mut short = fresh(&terrain);
     let goal = short.goal();
     short.update(&two(0.0, 0.0, 0.0));
     let out = short.update(&two(1.0, goal + 0.04, goal - 0.04));
+    assert!(!short.stopped(), "{:?}", short.progress());
+    assert!(out.values().all(|t| t.v > 0.0), "{out:?}");
+    // The back robot stands 40 mm short of where the plan puts it at the goal, whose
+    // overshoot covers 25 of them: 15 mm more, and the overshoot past that.
+    let further = short.goal();
+    let want = goal + 0.015 + settings.overshoot;
+    assert!((further - want).abs() < 1.5e-3, "{further} vs {want}");
+    // Still not across at the end of that: it stops, once and for all.
+    let out = short.update(&two(2.0, further + 0.1, further - 0.1));
     assert!(
         matches!(short.progress().stopped, Some((_, _, CrossStop::Short))),
         "{:?}",
@@ -226,8 +236,22 @@ fn the_drive_ends_at_the_proven_advance_reached_only_when_every_robot_is_across(
     );
     assert!(out.values().all(|t| t.v == 0.0), "{out:?}");
     assert!(!short.backing(), "no way back over the gap");
+    // Where the far platform ends just past the front robot, no further advance is proven:
+    // it stops at once.
+    let mut end = terrain.clone();
+    let far_end = x + goal + 0.04 + 0.03;
+    end.platforms[1] =
+        puzzlebot_params::terrain::Platform::rect("far", [0.04, -0.5], [far_end, 0.5], 0.0);
+    let mut edge = fresh(&end);
+    edge.update(&two(0.0, 0.0, 0.0));
+    edge.update(&two(1.0, goal + 0.04, goal - 0.04));
+    assert!(
+        matches!(edge.progress().stopped, Some((_, _, CrossStop::Short))),
+        "{:?}",
+        edge.progress()
+    );
     // Both across: reached.
-    let mut across = fresh();
+    let mut across = fresh(&terrain);
     across.update(&two(0.0, 0.0, 0.0));
     across.update(&two(1.0, goal, goal));
     assert!(

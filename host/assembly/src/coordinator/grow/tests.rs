@@ -415,3 +415,32 @@ fn growing_brings_a_coupled_group_outside_the_grown_assembly_to_it() {
     assert!(tick.tasks.iter().any(|t| far.contains(&t.robot)
         && !matches!(t.role, Role::Wait | Role::Hold | Role::Keep { .. })));
 }
+
+#[test]
+fn a_grown_assembly_straightens_back_towards_where_its_formation_started() {
+    let (mut c, robots, _, _) = line_grown_round_pilot_1();
+    c.tick(0.0, &robots);
+    let ahead = |c: &mut Coordinator, x: f64, y: f64| {
+        let moved: Vec<RobotState> = robots
+            .iter()
+            .map(|r| match r.id {
+                1 => RobotState {
+                    pose: Pose2::new(x, y, 0.0),
+                    ..*r
+                },
+                _ => *r,
+            })
+            .collect();
+        c.tick(1.0, &moved);
+    };
+    // The pilot (the seed) started at the origin facing +x.
+    ahead(&mut c, 0.05, 0.0);
+    assert!(c.straighten_backwards(&[1, 2], 0.0));
+    // Along the other heading the same place lies behind the start.
+    assert!(!c.straighten_backwards(&[1, 2], std::f64::consts::PI));
+    ahead(&mut c, -0.05, 0.3);
+    assert!(!c.straighten_backwards(&[1, 2], 0.0));
+    // An assembly without the seed straightens ahead, as it always did.
+    ahead(&mut c, 0.05, 0.0);
+    assert!(!c.straighten_backwards(&[2, 3], 0.0));
+}
