@@ -4,7 +4,8 @@
 //! lockstep (grow a mesh of two rows on the 2-D plant, already on the gap's terrain, where a
 //! robot driven off the edge falls; cross the 25 mm gap in the 3-D world),
 //! each start drawn from its seed with the impairment profile's controller latency, link
-//! loss, motion capture and plant mismatch. Counts how many cross, back off after a gate
+//! loss, motion capture and plant mismatch; the formation's time limit scales with the fleet
+//! as in `experiment assemblies` ([`super::episode::form_timeout_s`]). Counts how many cross, back off after a gate
 //! stop, are refused before moving, stop elsewhere, fall or do not form.
 
 use std::collections::BTreeMap;
@@ -139,7 +140,23 @@ pub fn fleet(
 pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> {
     let g = FleetParams::default().non_pilot.geometry;
     let file = scenario_file();
-    let scenario = AsmScenario::from_file(&file, &g)?;
+    let mut scenario = AsmScenario::from_file(&file, &g)?;
+    // The formation's time limit scales with the fleet, as in `experiment assemblies`.
+    for step in &mut scenario.steps {
+        if matches!(
+            step.behaviour,
+            puzzlebot_assembly::scenario::Behaviour::Form { .. }
+        ) {
+            step.timeout_s = Some(super::episode::form_timeout_s(opts.robots));
+        }
+    }
+    // Every step's limit, and 10 s for the holds.
+    let run_limit: f64 = scenario
+        .steps
+        .iter()
+        .filter_map(|s| s.timeout_s)
+        .sum::<f64>()
+        + 10.0;
     let terrain_file = scenario
         .steps
         .iter()
@@ -172,7 +189,7 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
                 scenario.clone(),
                 sim,
                 &dir,
-                300.0,
+                run_limit,
                 latency,
             );
             if !opts.keep_runs {

@@ -374,10 +374,9 @@ impl Episode {
         imp
     }
 
-    /// Time limit of the formation step (s): the order is sequential where it grows, so
-    /// it scales with the fleet.
+    /// Time limit of the formation step (s) ([`form_timeout_s`]).
     pub fn form_timeout_s(&self) -> f64 {
-        60.0 + 30.0 * self.robots as f64
+        form_timeout_s(self.robots)
     }
 
     /// Time limit of the whole run (s): every step's limit plus the holds.
@@ -482,6 +481,12 @@ impl Episode {
 
 /// Mixed into the episode's seed for the draw of its robots' plant mismatch.
 const MISMATCH_SEED: u64 = 0xbb67_ae85_84ca_a73b;
+
+/// Time limit of the formation step of a fleet of `robots` (s): the order is sequential
+/// where it grows, so it scales with the fleet. The experiments that form a fleet share it.
+pub fn form_timeout_s(robots: usize) -> f64 {
+    60.0 + 30.0 * robots as f64
+}
 
 #[cfg(test)]
 mod tests {
