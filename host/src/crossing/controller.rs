@@ -14,7 +14,6 @@ use puzzlebot_params::{FleetParams, RobotKind};
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
-use puzzlebot_stability::puzzlebot::max_safe_advance_with;
 use puzzlebot_stability::puzzlebot::{
     assembly_level, body_corners, build_model_with, judge_model, world, Pair, PairKind,
     PuzzleAssembly, RobotPose,
@@ -152,56 +151,13 @@ impl CrossingController {
             .unwrap_or(self.plan.required + self.settings.overshoot)
     }
 
-    /// At the end of the planned advance with a robot not across (the assembly drifted off
-    /// its straight path): the further advance along the heading that takes every member,
-    /// as measured, across ([`stands_across`]), when the gate proves it from the measured
-    /// poses with the planner's own check ([`max_safe_advance_with`], nowhere a stretch
-    /// proven only at speed, so the drive may stop anywhere in it). At most the assembly's
-    /// own extent along the heading and a body diagonal: farther, it is not a straggler.
-    fn extension(&self, view: &FleetView) -> Option<f64> {
-        let start = platform_at(&self.terrain, self.plan.start)?;
-        let poses: Vec<(RobotId, RobotPose)> = view
-            .robots
+    /// The members of `view` with a measured pose, as the gate pictures them.
+    fn member_poses(&self, view: &FleetView) -> Vec<(RobotId, RobotPose)> {
+        view.robots
             .iter()
             .filter(|r| self.members.contains(&r.id))
             .filter_map(|r| measured(r).map(|pose| (r.id, pose)))
-            .collect();
-        if poses.len() != self.members.len() {
-            return None;
-        }
-        let [c, s] = self.direction();
-        let along: Vec<f64> = poses.iter().map(|(_, p)| p.x * c + p.y * s).collect();
-        let g = &self.params.non_pilot.geometry;
-        let extent = along.iter().copied().fold(f64::MIN, f64::max)
-            - along.iter().copied().fold(f64::MAX, f64::min)
-            + f64::from(g.length).hypot(f64::from(g.width));
-        let across = |e: f64| {
-            poses.iter().all(|(_, p)| {
-                stands_across(
-                    &p.translated([c * e, s * e]),
-                    &self.params,
-                    &self.terrain,
-                    start,
-                )
-            })
-        };
-        let step = 0.001;
-        let e = (0..=(extent / step).ceil() as usize)
-            .map(|k| k as f64 * step)
-            .find(|&e| across(e))?;
-        let a = assembly_of(&poses, &self.links, g);
-        let opt = self.opt.advance_options(e);
-        let horizon = opt.horizon;
-        let proven = max_safe_advance_with(
-            &a,
-            &self.params,
-            &self.terrain,
-            self.heading(),
-            self.opt.step,
-            opt,
-        )
-        .ok()?;
-        (proven.distance >= horizon - 1e-9 && proven.bridged.is_empty()).then_some(e)
+            .collect()
     }
 
     /// Longest the drive may take (s): twice the time of its advance at speed, and two
@@ -558,12 +514,7 @@ impl Controller for CrossingController {
         };
         if self.settings.live_gate && d >= self.next_check && self.stretch(d).is_none() {
             self.progress.gate_checks += 1;
-            let poses: Vec<(RobotId, RobotPose)> = view
-                .robots
-                .iter()
-                .filter(|r| self.members.contains(&r.id))
-                .filter_map(|r| measured(r).map(|pose| (r.id, pose)))
-                .collect();
+            let poses = self.member_poses(view);
             let verdict = gate_now(
                 &poses,
                 &self.links,
@@ -678,6 +629,8 @@ fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
     let fwd = c * (b.x - a.x) + s * (b.y - a.y);
     [fwd.clamp(-side, side), 0.5 * f64::from(g.width)]
 }
+
+mod extension;
 
 #[cfg(test)]
 mod tests;
