@@ -410,16 +410,7 @@ impl CrossingController {
                     (true, _) | (false, None) => Twist::new(0.0, 0.0),
                     (false, Some(p)) => {
                         let turn = if steer && r.kind != RobotKind::Pilot {
-                            let turn = kp * wrap_angle(heading - p.theta) + ki * integral;
-                            let share = self.settings.inner_wheel_share;
-                            if share > 0.0 {
-                                let half_base =
-                                    0.5 * f64::from(self.params.non_pilot.geometry.wheel_base);
-                                let cap = (1.0 - share.min(1.0)) * speed.abs() / half_base;
-                                turn.clamp(-cap, cap)
-                            } else {
-                                turn
-                            }
+                            kp * wrap_angle(heading - p.theta) + ki * integral
                         } else {
                             0.0
                         };

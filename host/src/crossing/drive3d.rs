@@ -53,13 +53,6 @@ pub struct CrossSettings {
     /// straight. [`heading_gain`]; 0: equal wheel speeds. Pilots drive straight only (THESIS
     /// 5.4.1).
     pub heading_gain: f64,
-    /// Least share of the crossing speed the inner wheel of a non-pilot keeps while the
-    /// heading feedback turns it (1): the turn is capped at (1 − share) · v / (L / 2), so both
-    /// wheels keep pushing the assembly across. Uncapped, a mesh that slewed at the gap's far
-    /// edge had its non-pilots turn with one wheel stopped, the pilot driving straight, and
-    /// stalled there. 0.5 (the inner wheel at half speed, a turn of v / L) is the one value
-    /// measured; 0: no cap.
-    pub inner_wheel_share: f64,
     /// The 3-D world's settings.
     pub world: Config3d,
 }
@@ -154,7 +147,6 @@ impl CrossSettings {
             hold_through_stretches: true,
             link_loss_at: None,
             heading_gain: heading_gain(params),
-            inner_wheel_share: 0.5,
             world: Config3d::default(),
         }
     }

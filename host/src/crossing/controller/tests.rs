@@ -315,34 +315,3 @@ fn an_assembly_beside_its_path_steers_back_onto_it() {
     let right = c.update(&at(0.01, 0.002, -0.01));
     assert!(right[&2].omega > 0.0, "{:?}", right[&2]);
 }
-
-#[test]
-fn a_turning_non_pilot_keeps_both_wheels_pushing() {
-    let (mut c, _, plan) = line_of_two();
-    let (x1, x2) = (plan.start[0], plan.start[0] - 0.05);
-    // Slewed 0.4 rad off the heading and stuck: the hold's proportional and integral parts
-    // ask for a turn faster than the inner wheel can give while still driving forward.
-    let at = |t: f64| {
-        view(
-            t,
-            &[
-                (1, RobotKind::Pilot, Some([x1 + 1e-5 * t, 0.0, 0.4])),
-                (2, RobotKind::NonPilot, Some([x2 + 1e-5 * t, 0.0, 0.4])),
-            ],
-        )
-    };
-    c.update(&at(0.0));
-    let p = FleetParams::default();
-    let straight = crate::crossing::drive3d::wheel_rpms(Twist::new(c.settings.speed, 0.0), &p)[0];
-    for i in 1..300 {
-        let t = c.update(&at(0.01 * f64::from(i)))[&2];
-        assert!(t.omega < 0.0, "turns back: {t:?}");
-        let [l, r] = crate::crossing::drive3d::wheel_rpms(t, &p);
-        // The inner wheel keeps half the crossing speed.
-        assert!(
-            l.min(r) >= 0.5 * straight - 1e-3,
-            "wheels {l} and {r} RPM against {straight} straight"
-        );
-    }
-    assert!(!c.stopped(), "{:?}", c.progress());
-}
