@@ -5,8 +5,8 @@
 //! robot driven off the edge falls; cross the 25 mm gap in the 3-D world),
 //! each start drawn from its seed with the impairment profile's controller latency, link
 //! loss, motion capture and plant mismatch; the formation's time limit scales with the fleet
-//! as in `experiment assemblies` ([`super::episode::form_timeout_s`]). Counts how many cross, back off after a gate
-//! stop, are refused before moving, stop elsewhere, fall or do not form.
+//! as in `experiment assemblies` ([`super::episode::form_timeout_s`]). Counts how many cross,
+//! back off after a gate stop, are refused before moving, stop elsewhere, fall or do not form.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -150,13 +150,15 @@ pub fn run(opts: &Options, runs_dir: &Path) -> anyhow::Result<Vec<StartResult>> 
             step.timeout_s = Some(super::episode::form_timeout_s(opts.robots));
         }
     }
-    // Every step's limit, and 10 s for the holds.
+    // Every step's time limit or hold, and a second per step to hand over to the next.
     let run_limit: f64 = scenario
         .steps
         .iter()
-        .filter_map(|s| s.timeout_s)
-        .sum::<f64>()
-        + 10.0;
+        .map(|s| match s.behaviour {
+            puzzlebot_assembly::scenario::Behaviour::Hold { duration_s } => duration_s,
+            _ => s.timeout_s.unwrap_or(0.0),
+        } + 1.0)
+        .sum();
     let terrain_file = scenario
         .steps
         .iter()

@@ -331,6 +331,28 @@ pub fn platform_at(t: &Terrain, p: [f64; 2]) -> Option<usize> {
     t.platforms.iter().position(|pl| pl.contains(p))
 }
 
+/// The least advance along `heading` (rad), to the millimetre and at most `limit` (m), after
+/// which every robot of `robots` stands wholly off platform `start` ([`stands_across`]): the
+/// planner's required advance, and the drive's extension from measured poses.
+pub fn advance_across(
+    robots: &[RobotPose],
+    params: &FleetParams,
+    terrain: &Terrain,
+    start: usize,
+    heading: f64,
+    limit: f64,
+) -> Option<f64> {
+    let (s, c) = heading.sin_cos();
+    let step = 0.001;
+    (0..=(limit.max(0.0) / step).ceil() as usize)
+        .map(|k| k as f64 * step)
+        .find(|&d| {
+            robots
+                .iter()
+                .all(|r| stands_across(&r.translated([c * d, s * d]), params, terrain, start))
+        })
+}
+
 /// Robot `r` stands wholly off platform `start` of `terrain`: every underside corner over
 /// another platform, and every wheel a radius clear of `start`, so that none still rests on
 /// its edge. The end of a crossing, for the planner and for the drive that measures it.
@@ -422,23 +444,10 @@ fn judge_placed(
 ) -> Result<Option<Candidate>, PlanError> {
     let (shape, start) = (place.shape, place.start);
     let g = &params.non_pilot.geometry;
-    let (s, c) = heading.sin_cos();
-    // Advance along the heading until every robot stands wholly on another platform: every
-    // underside corner over one, and every wheel a radius clear of the start platform, so
-    // that none still rests on its edge.
-    let across = |d: f64| {
-        a.robots
-            .iter()
-            .all(|r| stands_across(&r.translated([c * d, s * d]), params, terrain, start))
-    };
     let limit = 4.0 * formation::footprint(shape, g)[0] + 1.0;
-    let mut required = 0.0;
-    while !across(required) {
-        required += 0.001;
-        if required > limit {
-            return Ok(None); // nowhere to go along this heading
-        }
-    }
+    let Some(required) = advance_across(&a.robots, params, terrain, start, heading, limit) else {
+        return Ok(None); // nowhere to go along this heading
+    };
     let advance = max_safe_advance_with(
         a,
         params,

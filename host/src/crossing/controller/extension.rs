@@ -1,7 +1,7 @@
 //! The crossing drive's one extension past the plan: a drifted assembly with a robot still
 //! astride at the end of the planned advance drives on as far as the gate proves afresh.
 
-use puzzlebot_stability::crossing::{platform_at, stands_across};
+use puzzlebot_stability::crossing::{advance_across, platform_at};
 use puzzlebot_stability::puzzlebot::max_safe_advance_with;
 
 use super::{assembly_of, CrossingController};
@@ -10,7 +10,7 @@ use crate::control::FleetView;
 impl CrossingController {
     /// At the end of the planned advance with a robot not across (the assembly drifted off
     /// its straight path): the further advance along the heading that takes every member,
-    /// as measured, across ([`stands_across`]), when the gate proves it from the measured
+    /// as measured, across ([`advance_across`]), when the gate proves it from the measured
     /// poses with the planner's own check ([`max_safe_advance_with`], nowhere a stretch
     /// proven only at speed, so the drive may stop anywhere in it). At most the assembly's
     /// own extent along the heading and a body diagonal: farther, it is not a straggler.
@@ -26,20 +26,15 @@ impl CrossingController {
         let extent = along.iter().copied().fold(f64::MIN, f64::max)
             - along.iter().copied().fold(f64::MAX, f64::min)
             + f64::from(g.length).hypot(f64::from(g.width));
-        let across = |e: f64| {
-            poses.iter().all(|(_, p)| {
-                stands_across(
-                    &p.translated([c * e, s * e]),
-                    &self.params,
-                    &self.terrain,
-                    start,
-                )
-            })
-        };
-        let step = 0.001;
-        let e = (0..=(extent / step).ceil() as usize)
-            .map(|k| k as f64 * step)
-            .find(|&e| across(e))?;
+        let robots: Vec<_> = poses.iter().map(|(_, p)| *p).collect();
+        let e = advance_across(
+            &robots,
+            &self.params,
+            &self.terrain,
+            start,
+            self.heading(),
+            extent,
+        )?;
         let a = assembly_of(&poses, &self.links, g);
         let opt = self.opt.advance_options(e);
         let horizon = opt.horizon;
