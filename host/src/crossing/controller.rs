@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 use puzzlebot_params::geometry::Geometry;
 use puzzlebot_params::terrain::Terrain;
-use puzzlebot_params::{FleetParams, RobotKind};
+use puzzlebot_params::FleetParams;
 use puzzlebot_protocol::RobotId;
 use puzzlebot_sim::LinkKind;
 use puzzlebot_stability::crossing::{platform_at, stands_across, Candidate, CrossingOptions};
@@ -204,7 +204,7 @@ impl CrossingController {
 
     /// Adds one host period of the members' mean heading error to the heading hold's
     /// integral, bounded so that its part never turns harder than the proportional part at
-    /// an error of one radian (|k_i · I| ≤ k_p).
+    /// an error of [`CrossSettings::integral_error`] (|k_i · I| ≤ k_p · e).
     fn integrate_heading(&mut self, view: &FleetView) {
         let kp = self.settings.heading_gain;
         if kp <= 0.0 {
@@ -222,7 +222,8 @@ impl CrossingController {
             return;
         }
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        let bound = 4.0 / kp;
+        // k_i = k_p² / 4 ([`Self::twists`]).
+        let bound = 4.0 * self.settings.integral_error.max(0.0) / kp;
         self.heading_integral = (self.heading_integral + mean / self.rate_hz).clamp(-bound, bound);
     }
 
@@ -383,43 +384,6 @@ impl CrossingController {
             -self.settings.speed,
             0.0,
         )
-    }
-
-    /// Twists of every robot of `view` at `speed` along the heading (0: standing) with each
-    /// non-pilot steered back to the heading, or driving forward to the path's
-    /// ([`Self::steer_to_path`]; pilots drive straight only, THESIS 5.4.1): a
-    /// proportional-integral heading hold, the integral part `integral` (rad·s). The gains
-    /// make the hold critically damped on the heading's integrating dynamics, k_i = k_p² / 4:
-    /// a pilot whose wheels pull it off the heading (plant mismatch) leaves no lasting error,
-    /// where the proportional part alone leaves one of its pull over k_p.
-    fn twists(
-        &self,
-        view: &FleetView,
-        steer: bool,
-        speed: f64,
-        integral: f64,
-    ) -> BTreeMap<RobotId, Twist> {
-        let heading = self.path_heading.unwrap_or_else(|| self.heading());
-        let kp = self.settings.heading_gain;
-        let ki = 0.25 * kp * kp;
-        view.robots
-            .iter()
-            .map(|r| {
-                let member = self.members.contains(&r.id);
-                let t = match (speed == 0.0 || !member, r.pose) {
-                    (true, _) | (false, None) => Twist::new(0.0, 0.0),
-                    (false, Some(p)) => {
-                        let turn = if steer && r.kind != RobotKind::Pilot {
-                            kp * wrap_angle(heading - p.theta) + ki * integral
-                        } else {
-                            0.0
-                        };
-                        Twist::new(speed, turn)
-                    }
-                };
-                (r.id, t)
-            })
-            .collect()
     }
 }
 
@@ -631,6 +595,7 @@ fn knob_point(a: &RobotPose, b: &RobotPose, g: &Geometry) -> [f64; 2] {
 }
 
 mod extension;
+mod steer;
 
 #[cfg(test)]
 mod tests;

@@ -53,6 +53,18 @@ pub struct CrossSettings {
     /// straight. [`heading_gain`]; 0: equal wheel speeds. Pilots drive straight only (THESIS
     /// 5.4.1).
     pub heading_gain: f64,
+    /// How much faster than `speed` the fastest member may drive while the assembly turns
+    /// back to its heading (a fraction of `speed`): the members turn as one rigid body about
+    /// the innermost, the outer ones faster ([`super::controller::CrossingController`]).
+    /// Half again as fast keeps every wheel well inside the motors' range; 0: no turning
+    /// of the whole body, only each non-pilot on its own.
+    pub max_speed_up: f64,
+    /// Bound of the heading hold's integral part, as the heading error (rad) at which the
+    /// proportional part turns as hard: the integral cancels a steady pull (a pilot's
+    /// mismatched wheels) up to that. Larger, it winds up while a mesh's straight-driving
+    /// pilots keep it from turning, and its non-pilots, one wheel nearly stopped, pivot the
+    /// mesh about a corner caught at the gap's edge.
+    pub integral_error: f64,
     /// The 3-D world's settings.
     pub world: Config3d,
 }
@@ -147,6 +159,8 @@ impl CrossSettings {
             hold_through_stretches: true,
             link_loss_at: None,
             heading_gain: heading_gain(params),
+            max_speed_up: 0.5,
+            integral_error: 0.1,
             world: Config3d::default(),
         }
     }
