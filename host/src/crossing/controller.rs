@@ -204,7 +204,7 @@ impl CrossingController {
 
     /// Adds one host period of the members' mean heading error to the heading hold's
     /// integral, bounded so that its part never turns harder than the proportional part at
-    /// an error of [`CrossSettings::integral_error`] (|k_i · I| ≤ k_p · e).
+    /// an error of one radian (|k_i · I| ≤ k_p).
     fn integrate_heading(&mut self, view: &FleetView) {
         let kp = self.settings.heading_gain;
         if kp <= 0.0 {
@@ -222,8 +222,7 @@ impl CrossingController {
             return;
         }
         let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-        // k_i = k_p² / 4 ([`Self::twists`]).
-        let bound = 4.0 * self.settings.integral_error.max(0.0) / kp;
+        let bound = 4.0 / kp;
         self.heading_integral = (self.heading_integral + mean / self.rate_hz).clamp(-bound, bound);
     }
 

@@ -59,12 +59,6 @@ pub struct CrossSettings {
     /// Half again as fast keeps every wheel well inside the motors' range; 0: no turning
     /// of the whole body, only each non-pilot on its own.
     pub max_speed_up: f64,
-    /// Bound of the heading hold's integral part, as the heading error (rad) at which the
-    /// proportional part turns as hard: the integral cancels a steady pull (a pilot's
-    /// mismatched wheels) up to that. Larger, it winds up while a mesh's straight-driving
-    /// pilots keep it from turning, and its non-pilots, one wheel nearly stopped, pivot the
-    /// mesh about a corner caught at the gap's edge.
-    pub integral_error: f64,
     /// The 3-D world's settings.
     pub world: Config3d,
 }
@@ -160,7 +154,6 @@ impl CrossSettings {
             link_loss_at: None,
             heading_gain: heading_gain(params),
             max_speed_up: 0.5,
-            integral_error: 0.1,
             world: Config3d::default(),
         }
     }
