@@ -211,19 +211,19 @@ impl CrossingController {
             return;
         }
         let heading = self.path_heading.unwrap_or_else(|| self.heading());
-        let errors: Vec<f64> = view
-            .robots
-            .iter()
-            .filter(|r| self.members.contains(&r.id))
-            .filter_map(|r| r.pose)
-            .map(|p| wrap_angle(heading - p.theta))
-            .collect();
-        if errors.is_empty() {
+        let Some(mean) = self.mean_error(view, heading) else {
             return;
-        }
-        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        };
         let bound = 4.0 / kp;
         self.heading_integral = (self.heading_integral + mean / self.rate_hz).clamp(-bound, bound);
+    }
+
+    /// The members' mean heading error from `heading` (rad, positive: turn left); `None`
+    /// without poses.
+    fn mean_error(&self, view: &FleetView, heading: f64) -> Option<f64> {
+        let poses = self.member_poses(view);
+        let sum: f64 = poses.iter().map(|(_, p)| wrap_angle(heading - p.yaw)).sum();
+        (!poses.is_empty()).then(|| sum / poses.len() as f64)
     }
 
     /// Driving forward, the heading to steer to: the plan proves the assembly on the straight

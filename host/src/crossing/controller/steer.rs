@@ -19,7 +19,7 @@ impl CrossingController {
     /// where the proportional part alone leaves one of its pull over k_p.
     ///
     /// Driving forward, the members' forward speeds are those of one rigid body turning at
-    /// the hold's rate for the members' mean heading error ([`Self::yaw_rate`]): a mesh whose
+    /// the hold's rate for the members' mean heading error ([`Self::forward_speeds`]): a mesh whose
     /// robots each only turned on the spot would fight its own knobs, and one with pilots
     /// (which drive straight only, THESIS 5.4.1) could not turn at all. Each non-pilot also
     /// turns at the hold's rate for its own heading error: a line yaws freely at its anchors
@@ -71,21 +71,13 @@ impl CrossingController {
         kp: f64,
         bias: f64,
     ) -> BTreeMap<RobotId, f64> {
-        let poses: Vec<_> = view
-            .robots
-            .iter()
-            .filter(|r| self.members.contains(&r.id))
-            .filter_map(|r| r.pose.map(|p| (r.id, p)))
-            .collect();
+        let poses = self.member_poses(view);
         if !steer || speed <= 0.0 || poses.len() < 2 {
             return BTreeMap::new();
         }
-        let n = poses.len() as f64;
-        let error = poses
-            .iter()
-            .map(|(_, p)| wrap_angle(heading - p.theta))
-            .sum::<f64>()
-            / n;
+        let Some(error) = self.mean_error(view, heading) else {
+            return BTreeMap::new();
+        };
         // Offsets to the left of the heading.
         let (s, c) = heading.sin_cos();
         let left: Vec<f64> = poses.iter().map(|(_, p)| -s * p.x + c * p.y).collect();
